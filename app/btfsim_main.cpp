@@ -1,0 +1,91 @@
+// btfsim: the engine from the command line (docs/cli.md). Argument parsing only; the commands
+// live in commands.cpp. Errors print as one line on stderr with a nonzero exit.
+#include <CLI/CLI.hpp>
+#include <btf/core/error.h>
+
+#include <cstdio>
+
+#include "commands.h"
+
+int main(int argc, char** argv) {
+  using namespace btf::cli;
+  CLI::App app{"btfsim — simulate Bidirectional Texture Functions from micro-geometry"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "btfsim 0.1.0");
+
+  SimulateArgs sim;
+  auto* s = app.add_subcommand("simulate", "simulate a raw BTF into a store file");
+  s->add_option("scene", sim.scene, "scene file (JSON)")->required();
+  s->add_option("-o,--output", sim.output, "output BTF store (written atomically)")->required();
+  s->add_option("--dirs", sim.dirs, "direction set: bonn81, ubo151 or a θ×φ grid like 16x32");
+  s->add_option("--texels", sim.texels, "texels: N or NUxNV");
+  s->add_option("--spp", sim.spp, "K: K×K jittered rays per texel");
+  s->add_option("--shadows", sim.shadows, "self-shadowing: map or rays");
+  s->add_option("--bias", sim.bias, "shadow-map bias scale (default 1)");
+  s->add_option("--threads", sim.threads, "worker threads (default: all cores)");
+  s->add_option("--seed", sim.seed, "jitter seed");
+  s->add_option("--memory-budget", sim.memoryBudget, "memory budget, e.g. 4G, 512M");
+  s->add_flag("--resume", sim.resume, "continue an interrupted run from OUTPUT.partial");
+  s->add_flag("--json", sim.json, "print a JSON summary on stdout");
+  s->add_flag("-q,--quiet", sim.quiet, "no progress bar");
+
+  BrdfArgs br;
+  auto* b = app.add_subcommand("brdf", "texel-averaged aBRDF at direction pairs, without a BTF");
+  b->add_option("scene", br.scene, "scene file")->required();
+  b->add_option("--pair", br.pairs, "θi,φi,θo,φo in degrees (repeatable)");
+  b->add_option("--pairs", br.pairsFile, "CSV file of θi,φi,θo,φo lines");
+  b->add_option("--spp", br.samples, "samples per axis over the tile (N×N rays per pair)");
+  b->add_option("--threads", br.threads, "worker threads");
+  b->add_flag("--json", br.json, "JSON output");
+
+  SliceArgs sl;
+  auto* c = app.add_subcommand("slice", "an image of a BTF: spatial (view, light) or a hemisphere of views");
+  c->add_option("btf", sl.btf, "BTF store")->required();
+  c->add_option("-o,--output", sl.output, "image file (.exr linear, .png tone mapped)")->required();
+  c->add_option("--view", sl.view, "θ,φ of the view (degrees): spatial image");
+  c->add_option("--light", sl.light, "θ,φ of the light (degrees)")->required();
+  c->add_option("--texel", sl.texel, "u,v or avg: hemisphere image of aBRDF over views");
+  c->add_option("--exposure", sl.exposure, "PNG: multiplies π·aBRDF before the sRGB curve");
+  c->add_option("--size", sl.size, "hemisphere image size in pixels");
+
+  InfoArgs in;
+  auto* i = app.add_subcommand("info", "print a BTF store's header and verify every checksum");
+  i->add_option("btf", in.btf, "BTF store")->required();
+  i->add_flag("--json", in.json, "JSON output");
+
+  BenchArgs be;
+  auto* bn = app.add_subcommand("bench", "benchmark the simulator (compute only, nothing written)");
+  bn->add_option("scene", be.scene, "scene file")->required();
+  bn->add_option("--texels", be.texels, "texels");
+  bn->add_option("--dirs", be.dirs, "direction set");
+  bn->add_option("--spp", be.spp, "K");
+  bn->add_option("--shadows", be.shadows, "comma-separated modes to measure");
+  bn->add_option("--threads", be.threads, "worker threads");
+  bn->add_option("--repeat", be.repeat, "runs per mode (the median is reported)");
+  bn->add_flag("--json", be.json, "JSON output");
+
+  std::string schemaOut;
+  auto* sc = app.add_subcommand("schema", "print the scene file's JSON Schema");
+  sc->add_option("-o,--output", schemaOut, "write to this file instead of stdout");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    if (*s) return simulate(sim);
+    if (*b) return brdf(br);
+    if (*c) return slice(sl);
+    if (*i) return info(in);
+    if (*bn) return bench(be);
+    if (*sc) return schema(schemaOut);
+  } catch (const btf::Error& e) {
+    std::fprintf(stderr, "btfsim: error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "btfsim: error: %s\n", e.what());
+    return 1;
+  }
+  return 1;
+}

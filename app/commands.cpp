@@ -1,0 +1,385 @@
+#include "commands.h"
+
+#include <btf/core/error.h>
+#include <btf/core/parallel.h>
+#include <btf/core/sysinfo.h>
+#include <btf/io/image_io.h>
+#include <btf/scene/scene.h>
+#include <btf/sim/brdf_probe.h>
+#include <btf/sim/simulator.h>
+#include <btf/store/btf_store.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace btf::cli {
+
+using json = nlohmann::ordered_json;
+
+void parseTexels(const std::string& s, int* nu, int* nv) {
+  int a = 0, b = 0;
+  char x = 0, extra = 0;
+  const int n = std::sscanf(s.c_str(), "%d%c%d%c", &a, &x, &b, &extra);
+  if (n == 1) b = a;
+  else if (!(n == 3 && (x == 'x' || x == 'X')))
+    throw Error("invalid --texels '" + s + "': expected N or NUxNV, e.g. 64 or 64x32");
+  if (a < 1 || b < 1 || a > 16384 || b > 16384)
+    throw Error("invalid --texels '" + s + "': each count must be between 1 and 16384");
+  *nu = a;
+  *nv = b;
+}
+
+void parseAnglePair(const std::string& s, const std::string& what, double* theta, double* phi) {
+  std::istringstream in(s);
+  char comma = 0;
+  std::string rest;
+  if (!(in >> *theta >> comma >> *phi) || comma != ',' || (in >> rest))
+    throw Error("invalid " + what + " '" + s + "': expected θ,φ in degrees, e.g. 30,45");
+  if (!std::isfinite(*theta) || !std::isfinite(*phi) || *theta < 0 || *theta >= 90)
+    throw Error("invalid " + what + " '" + s + "': θ must be in [0, 90) degrees");
+}
+
+namespace {
+
+void printEstimate(const SimEstimate& e, const SimOptions& o) {
+  std::fprintf(stderr,
+               "estimate: %s (hit maps %s, aBRDF %s) on %d thread(s); memory %s of a %s budget; "
+               "disk %s (%s free); %d chunk(s) of %d texel(s)\n",
+               formatSeconds(e.seconds).c_str(), formatSeconds(e.hitMapSeconds).c_str(),
+               formatSeconds(e.evalSeconds).c_str(), e.threads, formatBytes(double(e.memoryBytes)).c_str(),
+               formatBytes(double(o.memoryBudget)).c_str(), formatBytes(double(e.diskBytes)).c_str(),
+               e.freeDiskBytes ? formatBytes(double(e.freeDiskBytes)).c_str() : "?", e.chunks,
+               e.chunkTexels);
+}
+
+}  // namespace
+
+int simulate(const SimulateArgs& a) {
+  const Scene scene = loadScene(a.scene);
+  SimOptions o = optionsFromScene(scene);
+  if (!a.texels.empty()) parseTexels(a.texels, &o.nu, &o.nv);
+  if (!a.dirs.empty()) o.directions = a.dirs;
+  if (a.spp != 0) o.spp = a.spp;
+  if (!a.shadows.empty()) o.shadows = parseShadowMode(a.shadows);
+  if (a.seed >= 0) o.seed = uint64_t(a.seed);
+  if (a.threads < 0) throw Error("invalid --threads: must be >= 0");
+  o.shadowBias = float(a.bias);
+  o.memoryBudget = parseBytes(a.memoryBudget);
+  o.resume = a.resume;
+  o.progress = !a.quiet;
+  ThreadLimit limit(a.threads);
+  SimulationJob job(scene, o);
+  const SimEstimate est = job.estimate(a.output);
+  printEstimate(est, o);
+  if (!est.refusal.empty()) throw Error("refusing to start: " + est.refusal);
+  const SimReport r = job.run(a.output, est);
+  const double evalRate = r.evalSeconds > 0 ? double(r.abrdfValues) / r.evalSeconds : 0;
+  const double rayRate = r.hitMapSeconds > 0 ? double(r.hitMapRays) / r.hitMapSeconds : 0;
+  if (a.json) {
+    json j;
+    j["output"] = r.output;
+    j["scene"] = scene.name;
+    j["texels"] = {o.nu, o.nv};
+    j["directions"] = job.directions().name();
+    j["direction_count"] = job.directions().size();
+    j["spp"] = o.spp;
+    j["shadows"] = shadowModeName(o.shadows);
+    j["threads"] = est.threads;
+    j["wall_seconds"] = r.wallSeconds;
+    j["hit_map_seconds"] = r.hitMapSeconds;
+    j["abrdf_seconds"] = r.evalSeconds;
+    j["write_seconds"] = r.writeSeconds;
+    j["estimated_seconds"] = est.seconds;
+    j["hit_map_rays"] = r.hitMapRays;
+    j["rays_per_second"] = rayRate;
+    j["abrdf_values"] = r.abrdfValues;
+    j["abrdf_evaluations_per_second"] = evalRate;
+    j["brdf_evaluations"] = r.brdfEvaluations;
+    j["peak_memory_bytes"] = r.peakRssBytes;
+    j["output_bytes"] = r.outputBytes;
+    j["chunks"] = r.chunks;
+    j["chunks_resumed"] = r.chunksResumed;
+    std::cout << j.dump(2) << std::endl;
+  } else {
+    std::printf("wrote %s (%s)\n", r.output.c_str(), formatBytes(double(r.outputBytes)).c_str());
+    std::printf("  %d x %d texels, %d directions (%s), spp %d, shadows %s, %d thread(s)\n", o.nu, o.nv,
+                job.directions().size(), job.directions().name().c_str(), o.spp, shadowModeName(o.shadows),
+                est.threads);
+    std::printf("  wall %s: hit maps %s (%.2f M rays/s), aBRDF %s (%.2f M values/s), write %s\n",
+                formatSeconds(r.wallSeconds).c_str(), formatSeconds(r.hitMapSeconds).c_str(), rayRate / 1e6,
+                formatSeconds(r.evalSeconds).c_str(), evalRate / 1e6, formatSeconds(r.writeSeconds).c_str());
+    std::printf("  peak memory %s; chunks %d (%d resumed)\n", formatBytes(double(r.peakRssBytes)).c_str(),
+                r.chunks, r.chunksResumed);
+  }
+  return 0;
+}
+
+namespace {
+
+std::vector<DirectionPair> readPairs(const BrdfArgs& a, std::vector<std::array<double, 4>>* deg) {
+  std::vector<DirectionPair> pairs;
+  auto add = [&](const std::string& text, const std::string& where) {
+    std::array<double, 4> v{};
+    std::string t = text;
+    std::replace(t.begin(), t.end(), ',', ' ');
+    std::istringstream in(t);
+    std::string rest;
+    if (!(in >> v[0] >> v[1] >> v[2] >> v[3]) || (in >> rest))
+      throw Error(where + ": expected θi,φi,θo,φo in degrees, got '" + text + "'");
+    try {
+      pairs.push_back(pairFromDegrees(v[0], v[1], v[2], v[3]));
+    } catch (const Error& e) {
+      throw Error(where + ": " + e.what());
+    }
+    deg->push_back(v);
+  };
+  for (const auto& p : a.pairs) add(p, "--pair");
+  if (!a.pairsFile.empty()) {
+    std::ifstream f(a.pairsFile);
+    if (!f) throw Error(a.pairsFile + ": cannot open pairs file");
+    std::string line;
+    int n = 0;
+    while (std::getline(f, line)) {
+      ++n;
+      const auto first = line.find_first_not_of(" \t\r");
+      if (first == std::string::npos || line[first] == '#') continue;
+      if (std::isalpha(static_cast<unsigned char>(line[first])) && n == 1) continue;  // header
+      add(line, a.pairsFile + ":" + std::to_string(n));
+    }
+  }
+  if (pairs.empty()) throw Error("no direction pairs: give --pair θi,φi,θo,φo or --pairs FILE.csv");
+  return pairs;
+}
+
+}  // namespace
+
+int brdf(const BrdfArgs& a) {
+  if (a.samples < 1 || a.samples > 4096) throw Error("invalid --spp: samples per axis must be 1..4096");
+  const Scene scene = loadScene(a.scene);
+  std::vector<std::array<double, 4>> deg;
+  const auto pairs = readPairs(a, &deg);
+  ThreadLimit limit(a.threads);
+  SimOptions o = optionsFromScene(scene);
+  SimulationJob job(scene, o);
+  const auto vals = averagedBrdf(job.tracer(), job.materials(), pairs, a.samples, o.seed);
+  if (a.json) {
+    json arr = json::array();
+    for (size_t k = 0; k < vals.size(); ++k)
+      arr.push_back({{"theta_i", deg[k][0]}, {"phi_i", deg[k][1]}, {"theta_o", deg[k][2]},
+                     {"phi_o", deg[k][3]}, {"abrdf", {vals[k].x, vals[k].y, vals[k].z}}});
+    json j;
+    j["scene"] = scene.name;
+    j["samples"] = a.samples * a.samples;
+    j["pairs"] = arr;
+    std::cout << j.dump(2) << std::endl;
+  } else {
+    std::printf("theta_i,phi_i,theta_o,phi_o,r,g,b\n");
+    for (size_t k = 0; k < vals.size(); ++k)
+      std::printf("%g,%g,%g,%g,%.7g,%.7g,%.7g\n", deg[k][0], deg[k][1], deg[k][2], deg[k][3], vals[k].x,
+                  vals[k].y, vals[k].z);
+  }
+  return 0;
+}
+
+namespace {
+
+DirectionSet storeDirections(const BtfReader& r) {
+  DirectionSet d = DirectionSet::fromName(r.info().directionSet);
+  if (d.size() != r.info().nDirs()) throw Error("direction set of the store does not match its header");
+  return d;
+}
+
+}  // namespace
+
+int slice(const SliceArgs& a) {
+  BtfReader r(a.btf);
+  const BtfInfo& I = r.info();
+  const DirectionSet dirs = storeDirections(r);
+  double tl, pl;
+  parseAnglePair(a.light, "--light", &tl, &pl);
+  const auto lw = dirs.interpolate(deg2rad(tl), deg2rad(pl));
+  const float scale = float(kPi) * a.exposure;
+  if (!a.view.empty() == !a.texel.empty())
+    throw Error("slice needs exactly one of --view θ,φ (spatial image) or --texel u,v|avg (hemisphere)");
+  if (!a.view.empty()) {
+    double tv, pv;
+    parseAnglePair(a.view, "--view", &tv, &pv);
+    const auto vw = dirs.interpolate(deg2rad(tv), deg2rad(pv));
+    std::vector<float> img(size_t(I.texels()) * 3, 0.f);
+    for (const auto& v : vw)
+      for (const auto& l : lw) {
+        const auto part = r.readImage(v.index, l.index);
+        const float w = float(v.weight * l.weight);
+        for (size_t k = 0; k < img.size(); ++k) img[k] += w * part[k];
+      }
+    writeRgbImage(a.output, I.nu, I.nv, img, scale);
+    std::printf("wrote %s: %dx%d texels, view (%g, %g), light (%g, %g) degrees\n", a.output.c_str(), I.nu,
+                I.nv, tv, pv, tl, pl);
+    return 0;
+  }
+  if (a.size < 8 || a.size > 8192) throw Error("invalid --size: must be 8..8192 pixels");
+  // The texel's (or the tile average's) views × lights matrix, reduced to the chosen light.
+  const int n = I.nDirs();
+  std::vector<float> perView(size_t(n) * 3, 0.f);
+  auto accumulate = [&](const float* m, float w) {
+    for (int v = 0; v < n; ++v)
+      for (const auto& l : lw)
+        for (int c = 0; c < 3; ++c)
+          perView[size_t(v) * 3 + c] += w * float(l.weight) * m[(size_t(v) * n + size_t(l.index)) * 3 + c];
+  };
+  std::string what;
+  if (a.texel == "avg") {
+    const float w = 1.0f / float(I.texels());
+    for (int c = 0; c < I.chunks(); ++c) {
+      const auto data = r.readChunk(c);
+      for (int64_t t = I.chunkBegin(c); t < I.chunkEnd(c); ++t)
+        accumulate(&data[size_t(t - I.chunkBegin(c)) * I.texelBytes() / sizeof(float)], w);
+    }
+    what = "tile average";
+  } else {
+    int u = 0, v = 0;
+    char comma = 0, extra = 0;
+    if (std::sscanf(a.texel.c_str(), "%d%c%d%c", &u, &comma, &v, &extra) != 3 || comma != ',')
+      throw Error("invalid --texel '" + a.texel + "': expected u,v (texel indices) or avg");
+    if (u < 0 || v < 0 || u >= I.nu || v >= I.nv)
+      throw Error("invalid --texel '" + a.texel + "': outside the " + std::to_string(I.nu) + "x" +
+                  std::to_string(I.nv) + " texel grid");
+    const auto m = r.readTexel(int64_t(v) * I.nu + u);
+    accumulate(m.data(), 1.0f);
+    what = "texel " + a.texel;
+  }
+  // Orthographic hemisphere: pixel (x, y) in the unit disk ↦ view with sinθ = r, φ = atan2(y, x);
+  // +x to the right, +y up; outside the disk is black.
+  const int S = a.size;
+  std::vector<float> img(size_t(S) * S * 3, 0.f);
+  for (int j = 0; j < S; ++j)
+    for (int i = 0; i < S; ++i) {
+      const double x = (i + 0.5) / S * 2 - 1, y = (j + 0.5) / S * 2 - 1;
+      const double rr = std::sqrt(x * x + y * y);
+      if (rr > 1) continue;
+      const auto vw = dirs.interpolate(std::asin(std::min(rr, 1.0)), std::atan2(y, x));
+      for (const auto& v : vw)
+        for (int c = 0; c < 3; ++c)
+          img[(size_t(j) * S + i) * 3 + c] += float(v.weight) * perView[size_t(v.index) * 3 + c];
+    }
+  writeRgbImage(a.output, S, S, img, scale);
+  std::printf("wrote %s: aBRDF over views of the %s, light (%g, %g) degrees\n", a.output.c_str(), what.c_str(),
+              tl, pl);
+  return 0;
+}
+
+int info(const InfoArgs& a) {
+  BtfReader r(a.btf);
+  const BtfInfo& I = r.info();
+  const auto v = r.verify();
+  const bool ok = v.badChunks.empty() && v.vmfOk;
+  if (a.json) {
+    json j = json::parse(r.headerJson());
+    j["file_bytes"] = r.layout().totalBytes;
+    j["verified"] = ok;
+    j["bad_chunks"] = v.badChunks;
+    j["vmf_ok"] = v.vmfOk;
+    std::cout << j.dump(2) << std::endl;
+  } else {
+    std::printf("%s: raw BTF store, %s\n", a.btf.c_str(), formatBytes(double(r.layout().totalBytes)).c_str());
+    std::printf("  scene        %s (hash %s)\n", I.sceneName.c_str(), I.sceneHash.c_str());
+    std::printf("  tile         %g x %g\n", I.Lx, I.Ly);
+    std::printf("  texels       %d x %d\n", I.nu, I.nv);
+    std::printf("  directions   %s (%d, shared by view and light; %lld pairs)\n", I.directionSet.c_str(),
+                I.nDirs(), static_cast<long long>(I.nDirs()) * I.nDirs());
+    std::printf("  settings     spp %d, shadows %s (bias %g), seed %llu\n", I.spp, I.shadows.c_str(),
+                I.shadowBias, static_cast<unsigned long long>(I.seed));
+    std::printf("  plan         %s\n", I.plan.c_str());
+    std::printf("  chunks       %d of %d texel(s)\n", I.chunks(), I.chunkTexels);
+    std::printf("  checksums    %s", ok ? "all verified\n" : "MISMATCH:");
+    if (!ok) {
+      for (int c : v.badChunks) std::printf(" chunk %d", c);
+      if (!v.vmfOk) std::printf(" visibility-map");
+      std::printf("\n");
+    }
+  }
+  if (!ok) throw Error(a.btf + ": corrupted: " + std::to_string(v.badChunks.size()) + " bad chunk(s)" +
+                       (v.vmfOk ? "" : ", bad visibility map"));
+  return 0;
+}
+
+int bench(const BenchArgs& a) {
+  const Scene scene = loadScene(a.scene);
+  ThreadLimit limit(a.threads);
+  if (a.repeat < 1) throw Error("invalid --repeat: must be >= 1");
+  json results = json::array();
+  std::stringstream modes(a.shadows);
+  std::string mode;
+  while (std::getline(modes, mode, ',')) {
+    SimOptions o = optionsFromScene(scene);
+    parseTexels(a.texels, &o.nu, &o.nv);
+    o.directions = a.dirs;
+    o.spp = a.spp;
+    o.shadows = parseShadowMode(mode);
+    o.progress = false;
+    o.memoryBudget = uint64_t(2) << 30;
+    SimulationJob job(scene, o);
+    const SimEstimate est = job.estimate("");
+    std::vector<double> wall, hit, eval, rays, rates, rss;
+    for (int k = 0; k < a.repeat; ++k) {
+      const SimReport r = job.run("", est);
+      wall.push_back(r.wallSeconds);
+      hit.push_back(r.hitMapSeconds);
+      eval.push_back(r.evalSeconds);
+      rays.push_back(double(r.hitMapRays) / r.hitMapSeconds);
+      rates.push_back(double(r.abrdfValues) / r.evalSeconds);
+      rss.push_back(double(r.peakRssBytes));
+      std::fprintf(stderr, "bench %s run %d/%d: %.2f s (hit maps %.2f s, aBRDF %.2f s, %.1f M values/s)\n",
+                   mode.c_str(), k + 1, a.repeat, r.wallSeconds, r.hitMapSeconds, r.evalSeconds,
+                   rates.back() / 1e6);
+    }
+    auto median = [](std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      return v[v.size() / 2];
+    };
+    json j;
+    j["shadows"] = mode;
+    j["texels"] = {o.nu, o.nv};
+    j["directions"] = job.directions().name();
+    j["pairs"] = int64_t(job.directions().size()) * job.directions().size();
+    j["spp"] = o.spp;
+    j["threads"] = est.threads;
+    j["runs"] = a.repeat;
+    j["median_wall_seconds"] = median(wall);
+    j["median_hit_map_seconds"] = median(hit);
+    j["median_abrdf_seconds"] = median(eval);
+    j["median_rays_per_second"] = median(rays);
+    j["median_abrdf_values_per_second"] = median(rates);
+    j["estimated_seconds"] = est.seconds;
+    j["peak_rss_bytes"] = *std::max_element(rss.begin(), rss.end());
+    j["memory_budget_bytes"] = o.memoryBudget;
+    results.push_back(j);
+    if (!a.json)
+      std::printf("%-5s %dx%d texels x %s^2, spp %d, %d thread(s): median wall %.2f s = hit maps %.2f s "
+                  "(%.2f M rays/s) + aBRDF %.2f s (%.1f M values/s); peak RSS %s\n",
+                  mode.c_str(), o.nu, o.nv, job.directions().name().c_str(), o.spp, est.threads, median(wall),
+                  median(hit), median(rays) / 1e6, median(eval), median(rates) / 1e6,
+                  formatBytes(*std::max_element(rss.begin(), rss.end())).c_str());
+  }
+  if (a.json) std::cout << results.dump(2) << std::endl;
+  return 0;
+}
+
+int schema(const std::string& output) {
+  const std::string s = sceneJsonSchema();
+  if (output.empty()) {
+    std::cout << s;
+  } else {
+    std::ofstream f(output, std::ios::binary);
+    if (!f) throw Error(output + ": cannot write");
+    f << s;
+  }
+  return 0;
+}
+
+}  // namespace btf::cli

@@ -1,0 +1,62 @@
+#include <btf/core/progress.h>
+#include <btf/core/sysinfo.h>
+#include <unistd.h>
+
+#include <cstdio>
+
+namespace btf {
+
+ProgressReporter::ProgressReporter(std::string stage, int64_t total, bool print)
+    : m_stage(std::move(stage)), m_total(total < 1 ? 1 : total), m_print(print) {
+  m_tty = isatty(STDERR_FILENO) != 0;
+  m_start = m_lastDraw = std::chrono::steady_clock::now();
+}
+
+ProgressReporter::~ProgressReporter() {
+  if (!m_finished && m_print && m_tty) std::fprintf(stderr, "\n");
+}
+
+double ProgressReporter::elapsedSeconds() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+}
+
+void ProgressReporter::add(int64_t n) {
+  m_done.fetch_add(n, std::memory_order_relaxed);
+  if (!m_print) return;
+  std::unique_lock lock(m_mutex, std::try_to_lock);
+  if (!lock.owns_lock()) return;
+  draw(false);
+}
+
+void ProgressReporter::finish() {
+  if (m_finished) return;
+  m_finished = true;
+  if (!m_print) return;
+  std::lock_guard lock(m_mutex);
+  m_done = m_total;
+  draw(true);
+}
+
+void ProgressReporter::draw(bool final) {
+  auto now = std::chrono::steady_clock::now();
+  const double frac = std::min(1.0, double(done()) / double(m_total));
+  const double el = std::chrono::duration<double>(now - m_start).count();
+  if (m_tty) {
+    if (!final && std::chrono::duration<double>(now - m_lastDraw).count() < 0.2) return;
+  } else {
+    const int decile = int(frac * 10);
+    if (!final && decile == m_lastDecile) return;
+    m_lastDecile = decile;
+  }
+  m_lastDraw = now;
+  const int width = 30;
+  std::string bar(width, ' ');
+  for (int i = 0; i < int(frac * width); ++i) bar[i] = '#';
+  const double eta = frac > 0 ? el * (1 - frac) / frac : -1;
+  std::fprintf(stderr, "%s%-14s [%s] %5.1f%%  %s elapsed, ETA %s%s", m_tty ? "\r" : "",
+               m_stage.c_str(), bar.c_str(), 100 * frac, formatSeconds(el).c_str(),
+               final ? "0 s" : formatSeconds(eta).c_str(), (m_tty && !final) ? "" : "\n");
+  std::fflush(stderr);
+}
+
+}  // namespace btf

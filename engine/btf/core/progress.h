@@ -1,0 +1,37 @@
+// Progress of a long kernel: workers add to an atomic counter; the reporter prints a bar with
+// rate and ETA on stderr (redrawn on a terminal, a line every 10 % otherwise) and exposes
+// {stage, done, total} to any poller (the studio's job panel).
+#pragma once
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <mutex>
+#include <string>
+
+namespace btf {
+
+class ProgressReporter {
+ public:
+  ProgressReporter(std::string stage, int64_t total, bool print);
+  ~ProgressReporter();
+  void add(int64_t n);
+  void finish();
+  int64_t done() const { return m_done.load(std::memory_order_relaxed); }
+  int64_t total() const { return m_total; }
+  double elapsedSeconds() const;
+
+ private:
+  void draw(bool final);
+  std::string m_stage;
+  int64_t m_total;
+  bool m_print;
+  bool m_tty;
+  bool m_finished = false;
+  std::atomic<int64_t> m_done{0};
+  std::chrono::steady_clock::time_point m_start;
+  std::chrono::steady_clock::time_point m_lastDraw;
+  int m_lastDecile = -1;
+  std::mutex m_mutex;
+};
+
+}  // namespace btf

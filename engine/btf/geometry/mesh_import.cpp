@@ -1,0 +1,157 @@
+// Mesh files through OpenMesh, and subdivision surfaces through OpenSubdiv (Far, CPU).
+#include <OpenMesh/Core/IO/MeshIO.hh>
+#include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/System/omstream.hh>
+#include <btf/core/error.h>
+#include <btf/geometry/builders.h>
+#include <opensubdiv/far/primvarRefiner.h>
+#include <opensubdiv/far/topologyDescriptor.h>
+
+#include <filesystem>
+#include <mutex>
+#include <sstream>
+
+namespace btf {
+
+namespace {
+
+using PolyMesh = OpenMesh::PolyMesh_ArrayKernelT<>;
+
+/// Reads a polygon mesh; OpenMesh's complaints (faces with repeated or invalid vertices) are
+/// captured and turned into one clear error, and faces it had to split off because they were
+/// non-manifold are reported too.
+PolyMesh readPoly(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw Error(path + ": mesh file not found");
+  PolyMesh mesh;
+  mesh.request_face_status();
+  mesh.request_vertex_status();
+  mesh.request_edge_status();
+  static std::mutex ioMutex;  // omerr() is a process-wide stream
+  std::ostringstream log;
+  bool ok;
+  {
+    std::lock_guard lock(ioMutex);
+    omerr().connect(log);
+    omlog().disable();
+    OpenMesh::IO::Options opt;
+    ok = OpenMesh::IO::read_mesh(mesh, path, opt);
+    omerr().disconnect(log);
+  }
+  if (!ok) throw Error(path + ": cannot read mesh (unsupported format or malformed file)");
+  const std::string msgs = log.str();
+  if (msgs.find("equal vertices") != std::string::npos)
+    throw Error(path + ": degenerate mesh: a face repeats a vertex");
+  if (msgs.find("invalid vertex") != std::string::npos)
+    throw Error(path + ": malformed mesh: a face refers to a vertex that does not exist");
+  size_t nonManifold = 0;
+  for (auto f : mesh.faces()) nonManifold += mesh.status(f).fixed_nonmanifold();
+  if (nonManifold > 0)
+    throw Error(path + ": non-manifold mesh: " + std::to_string(nonManifold) +
+                " face(s) share an edge with more than one other face or are inconsistently oriented");
+  if (mesh.n_faces() == 0) throw Error(path + ": mesh has no faces");
+  return mesh;
+}
+
+void checkDegenerate(const TriMesh& m, const std::string& path) {
+  Vec3 lo(1e30f), hi(-1e30f);
+  for (const auto& p : m.pos) {
+    if (!finite3(p)) throw Error(path + ": non-finite vertex coordinate");
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const float diag = glm::length(hi - lo);
+  if (!(diag > 0)) throw Error(path + ": degenerate mesh: all vertices coincide");
+  for (size_t i = 0; i < m.tri.size(); ++i) {
+    const auto& t = m.tri[i];
+    const float a2 = glm::length(glm::cross(m.pos[t.y] - m.pos[t.x], m.pos[t.z] - m.pos[t.x]));
+    if (!(a2 > 1e-10f * diag * diag))
+      throw Error(path + ": degenerate mesh: triangle " + std::to_string(i) + " has zero area");
+  }
+}
+
+}  // namespace
+
+TriMesh loadMeshFile(const std::string& path, bool smooth) {
+  PolyMesh pm = readPoly(path);
+  TriMesh m;
+  for (auto v : pm.vertices()) {
+    const auto p = pm.point(v);
+    m.pos.push_back(Vec3(p[0], p[1], p[2]));
+  }
+  for (auto f : pm.faces()) {
+    std::vector<uint32_t> ids;
+    for (auto v : pm.fv_range(f)) ids.push_back(uint32_t(v.idx()));
+    for (size_t k = 1; k + 1 < ids.size(); ++k) m.tri.push_back({ids[0], ids[k], ids[k + 1]});
+  }
+  checkDegenerate(m, path);
+  m.computeSmoothNormals();
+  if (!smooth) m.makeFlat();
+  return m;
+}
+
+TriMesh buildSubdivision(const std::string& cagePath, int levels, const std::string& scheme) {
+  using namespace OpenSubdiv;
+  PolyMesh cage = readPoly(cagePath);
+  std::vector<int> vertsPerFace, faceVerts;
+  for (auto f : cage.faces()) {
+    int n = 0;
+    for (auto v : cage.fv_range(f)) {
+      faceVerts.push_back(v.idx());
+      ++n;
+    }
+    vertsPerFace.push_back(n);
+  }
+  const Sdc::SchemeType type = scheme == "loop"       ? Sdc::SCHEME_LOOP
+                               : scheme == "bilinear" ? Sdc::SCHEME_BILINEAR
+                                                      : Sdc::SCHEME_CATMARK;
+  if (type == Sdc::SCHEME_LOOP)
+    for (int n : vertsPerFace)
+      if (n != 3) throw Error(cagePath + ": the loop scheme needs a triangle cage");
+  Far::TopologyDescriptor desc;
+  desc.numVertices = int(cage.n_vertices());
+  desc.numFaces = int(vertsPerFace.size());
+  desc.numVertsPerFace = vertsPerFace.data();
+  desc.vertIndicesPerFace = faceVerts.data();
+  Sdc::Options opts;
+  opts.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
+  using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
+  std::unique_ptr<Far::TopologyRefiner> refiner(
+      Factory::Create(desc, Factory::Options(type, opts)));
+  if (!refiner) throw Error(cagePath + ": OpenSubdiv rejected the cage topology");
+  refiner->RefineUniform(Far::TopologyRefiner::UniformOptions(levels));
+
+  struct V {
+    float p[3];
+    void Clear(void* = nullptr) { p[0] = p[1] = p[2] = 0; }
+    void AddWithWeight(const V& s, float w) {
+      p[0] += w * s.p[0];
+      p[1] += w * s.p[1];
+      p[2] += w * s.p[2];
+    }
+  };
+  std::vector<V> verts(refiner->GetNumVerticesTotal());
+  for (auto v : cage.vertices()) {
+    const auto q = cage.point(v);
+    verts[v.idx()] = V{{q[0], q[1], q[2]}};
+  }
+  Far::PrimvarRefiner primvar(*refiner);
+  V* src = verts.data();
+  for (int level = 1; level <= levels; ++level) {
+    V* dst = src + refiner->GetLevel(level - 1).GetNumVertices();
+    primvar.Interpolate(level, src, dst);
+    src = dst;
+  }
+  const Far::TopologyLevel& last = refiner->GetLevel(levels);
+  TriMesh m;
+  for (int i = 0; i < last.GetNumVertices(); ++i)
+    m.pos.push_back(Vec3(src[i].p[0], src[i].p[1], src[i].p[2]));
+  for (int f = 0; f < last.GetNumFaces(); ++f) {
+    Far::ConstIndexArray fv = last.GetFaceVertices(f);
+    for (int k = 1; k + 1 < fv.size(); ++k)
+      m.tri.push_back({uint32_t(fv[0]), uint32_t(fv[k]), uint32_t(fv[k + 1])});
+  }
+  m.computeSmoothNormals();
+  return m;
+}
+
+}  // namespace btf

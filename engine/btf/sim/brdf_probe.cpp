@@ -1,0 +1,69 @@
+#include <btf/core/error.h>
+#include <btf/core/rng.h>
+#include <btf/sim/brdf_probe.h>
+#include <btf/sim/hit_maps.h>
+
+#include <cmath>
+
+namespace btf {
+
+DirectionPair pairFromDegrees(double ti, double pi, double to, double po) {
+  for (double t : {ti, to})
+    if (!std::isfinite(t) || t < 0 || t >= 90)
+      throw Error("θ must be in [0, 90) degrees (got " + std::to_string(t) + ")");
+  for (double p : {pi, po})
+    if (!std::isfinite(p)) throw Error("φ must be a finite angle in degrees");
+  return {sphericalDir(deg2rad(ti), deg2rad(pi)), sphericalDir(deg2rad(to), deg2rad(po))};
+}
+
+std::vector<Rgb> averagedBrdf(const PeriodicTracer& tracer, const std::vector<Material>& materials,
+                              const std::vector<DirectionPair>& pairs, int n, uint64_t seed,
+                              const CancelToken* cancel) {
+  if (n < 1) throw Error("samples per axis must be >= 1");
+  const TileGeometry& g = tracer.geometry();
+  std::vector<Rgb> out(pairs.size(), Rgb(0));
+  std::vector<Rgb> partials(pairs.size() * size_t(n), Rgb(0));
+  parallelForChunks(int64_t(pairs.size()) * n, 1, [&](int64_t b, int64_t e) {
+    for (int64_t k = b; k < e; ++k) {
+      const size_t pi = size_t(k / n);
+      const int row = int(k % n);
+      const DirectionPair& pr = pairs[pi];
+      const Vec3 wi(pr.wi), wo(pr.wo);
+      const float invCos = 1.0f / float(std::max(pr.wi.z, 1e-7));
+      Rgb sum(0);
+      for (int a = 0; a < n; ++a) {
+        const uint64_t h = hashKeys(seed, uint64_t(a), uint64_t(row), 0xb3d);
+        const DVec3 p0((a + uniformFloat(h)) * g.Lx / n, (row + uniformFloat(mix64(h))) * g.Ly / n, 0);
+        float depth;
+        const RayHit hit = traceSampleRay(tracer, p0, pr.wo, &depth);
+        if (!hit.hit()) continue;
+        Vec3 ng = g.faceNormal(hit.prim);
+        const float l = glm::length(ng);
+        if (!(l > 0)) continue;
+        ng /= l;
+        Vec3 nS = g.shadingNormal(hit.prim, hit.u, hit.v);
+        if (glm::dot(ng, wo) < 0) {
+          ng = -ng;
+          nS = -nS;
+        }
+        const float cosN = glm::dot(nS, wi);
+        if (cosN <= 0 || glm::dot(ng, wi) <= 0) continue;
+        const DVec3 p = p0 + double(depth) * pr.wo;
+        if (tracer.occluded(p + tracer.epsilon() * DVec3(ng), pr.wi)) continue;
+        const Frame fr = Frame::fromNormal(nS);
+        sum += evalBrdf(materials[g.triMaterial[hit.prim]], fr.toLocal(wi), fr.toLocal(wo)) *
+               (cosN * invCos);
+      }
+      partials[size_t(k)] = sum;  // per-row partials: deterministic, no atomics
+    }
+  }, cancel);
+  const float inv = 1.0f / float(n) / float(n);
+  for (size_t pi = 0; pi < pairs.size(); ++pi) {
+    Rgb acc(0);
+    for (int r = 0; r < n; ++r) acc += partials[pi * size_t(n) + size_t(r)];
+    out[pi] = acc * inv;
+  }
+  return out;
+}
+
+}  // namespace btf

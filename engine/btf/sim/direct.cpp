@@ -1,0 +1,158 @@
+#include <btf/core/error.h>
+#include <btf/sim/direct.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace btf {
+
+ShadowMode parseShadowMode(const std::string& s) {
+  if (s == "map") return ShadowMode::Map;
+  if (s == "rays") return ShadowMode::Rays;
+  throw Error("unknown shadow mode '" + s + "' (expected map or rays)");
+}
+const char* shadowModeName(ShadowMode m) { return m == ShadowMode::Map ? "map" : "rays"; }
+
+DirectIllumination::DirectIllumination(const PeriodicTracer& tracer,
+                                       const std::vector<Material>& materials,
+                                       const DirectionSet& dirs, const HitMaps& maps,
+                                       DirectSettings settings)
+    : m_tracer(tracer),
+      m_geom(tracer.geometry()),
+      m_materials(materials),
+      m_dirs(dirs),
+      m_maps(maps),
+      m_settings(settings) {
+  for (const auto& d : dirs.dirs()) {
+    const double c = std::max(d.w.z, 1e-7);
+    m_lights.push_back({Vec3(d.w), float(1.0 / c), float(d.w.x / c), float(d.w.y / c)});
+  }
+  const SampleGrid& g = maps.grid();
+  m_cell = float(std::max(g.Lx / g.su(), g.Ly / g.sv()));
+}
+
+float DirectIllumination::shadowMapVisibility(int l, const Vec3& p, const Vec3& ng,
+                                              uint32_t prim) const {
+  const LightInfo& L = m_lights[size_t(l)];
+  const SampleGrid& g = m_maps.grid();
+  // Project p along ωi onto the plane: q = p − (p.z / cos θi) ωi; r is p's distance along ωi.
+  const float r = p.z * L.invCos;
+  const double qx = double(p.x) - double(p.z) * L.slopeX;
+  const double qy = double(p.y) - double(p.z) * L.slopeY;
+  const int su = g.su(), sv = g.sv();
+  double fx = qx / g.Lx * su - 0.5, fy = qy / g.Ly * sv - 0.5;
+  fx -= std::floor(fx / su) * su;
+  fy -= std::floor(fy / sv) * sv;
+  int i0 = int(fx), j0 = int(fy);
+  const float tx = float(fx - i0), ty = float(fy - j0);
+  i0 = std::min(i0, su - 1);
+  j0 = std::min(j0, sv - 1);
+  const int i1 = (i0 + 1) % su, j1 = (j0 + 1) % sv;
+  // Slope-scaled bias: the depth of a plane seen from ωi changes by |n_xy| / (n·ωi) per unit of
+  // plane distance, and the filter taps lie up to ~1.5 sample spacings from q.
+  const float cn = std::max(glm::dot(ng, L.w), 1e-4f);
+  const float slope = std::min(std::sqrt(ng.x * ng.x + ng.y * ng.y) / cn, 10.0f);
+  const float bias = m_settings.biasScale * m_cell * (0.25f + 1.5f * slope);
+  const uint32_t* prims = m_maps.primRow(l);
+  const float* depths = m_maps.depthRow(l);
+  auto lit = [&](int i, int j) -> float {
+    const size_t k = size_t(j) * su + i;
+    // A triangle is planar and cannot shadow itself: same primitive means lit.
+    return (prims[k] == prim || r >= depths[k] - bias) ? 1.0f : 0.0f;
+  };
+  return (lit(i0, j0) * (1 - tx) + lit(i1, j0) * tx) * (1 - ty) +
+         (lit(i0, j1) * (1 - tx) + lit(i1, j1) * tx) * ty;
+}
+
+namespace {
+struct ShadingPoint {
+  Vec3 p, n, ng;
+  Frame frame;
+  Vec3 wo;
+  const Material* mat;
+};
+}  // namespace
+
+int64_t DirectIllumination::evalTexelView(int i, int j, int view, float* out) const {
+  const int nL = m_dirs.size();
+  std::fill(out, out + size_t(nL) * 3, 0.0f);
+  const SampleGrid& g = m_maps.grid();
+  const int K2 = g.spp * g.spp;
+  const float invK2 = 1.0f / float(K2);
+  const DVec3 wv = m_dirs[view].w;
+  int64_t evals = 0;
+  for (int s = 0; s < K2; ++s) {
+    const int64_t si = g.sampleIndex(i, j, s);
+    const uint32_t prim = m_maps.prim(view, si);
+    if (prim == kNoHit) continue;
+    const int a = int(si % g.su()), b = int(si / g.su());
+    const DVec3 p0 = g.position(a, b);
+    const Vec3 p = Vec3(p0 + double(m_maps.depth(view, si)) * wv);
+    Vec3 ng = m_geom.faceNormal(prim);
+    const float lng = glm::length(ng);
+    if (!(lng > 0)) continue;  // zero-area triangle: contributes nothing
+    ng /= lng;
+    Vec3 n = m_geom.shadingNormal(prim, m_maps.bu(view, si), m_maps.bv(view, si));
+    if (glm::dot(ng, Vec3(wv)) < 0) {  // two-sided surfaces: shade the side that is seen
+      ng = -ng;
+      n = -n;
+    }
+    const Frame frame = Frame::fromNormal(n);
+    const Vec3 wo = frame.toLocal(Vec3(wv));
+    const Material& mat = m_materials[m_geom.triMaterial[prim]];
+    const DVec3 origin = DVec3(p) + m_tracer.epsilon() * DVec3(ng);
+    for (int l = 0; l < nL; ++l) {
+      const LightInfo& L = m_lights[size_t(l)];
+      const float cosN = glm::dot(n, L.w);
+      if (cosN <= 0 || glm::dot(ng, L.w) <= 0) continue;
+      float vis;
+      if (m_settings.shadows == ShadowMode::Map) {
+        vis = shadowMapVisibility(l, p, ng, prim);
+      } else {
+        vis = m_tracer.occluded(origin, DVec3(L.w)) ? 0.0f : 1.0f;
+      }
+      if (vis <= 0) continue;
+      const Rgb f = evalBrdf(mat, frame.toLocal(L.w), wo);
+      const float k = cosN * L.invCos * vis * invK2;
+      out[3 * l] += f.x * k;
+      out[3 * l + 1] += f.y * k;
+      out[3 * l + 2] += f.z * k;
+      ++evals;
+    }
+  }
+  return evals;
+}
+
+Rgb DirectIllumination::evalTexelViewLight(int i, int j, int view, const DVec3& light) const {
+  const SampleGrid& g = m_maps.grid();
+  const int K2 = g.spp * g.spp;
+  const DVec3 wv = m_dirs[view].w;
+  const Vec3 wl(light);
+  const float invCos = 1.0f / float(std::max(light.z, 1e-7));
+  Rgb sum(0);
+  for (int s = 0; s < K2; ++s) {
+    const int64_t si = g.sampleIndex(i, j, s);
+    const uint32_t prim = m_maps.prim(view, si);
+    if (prim == kNoHit) continue;
+    const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
+    const DVec3 p = p0 + double(m_maps.depth(view, si)) * wv;
+    Vec3 ng = m_geom.faceNormal(prim);
+    const float lng = glm::length(ng);
+    if (!(lng > 0)) continue;
+    ng /= lng;
+    Vec3 n = m_geom.shadingNormal(prim, m_maps.bu(view, si), m_maps.bv(view, si));
+    if (glm::dot(ng, Vec3(wv)) < 0) {
+      ng = -ng;
+      n = -n;
+    }
+    const float cosN = glm::dot(n, wl);
+    if (cosN <= 0 || glm::dot(ng, wl) <= 0) continue;
+    if (m_tracer.occluded(p + m_tracer.epsilon() * DVec3(ng), light)) continue;
+    const Frame frame = Frame::fromNormal(n);
+    sum += evalBrdf(m_materials[m_geom.triMaterial[prim]], frame.toLocal(wl),
+                    frame.toLocal(Vec3(wv))) * (cosN * invCos);
+  }
+  return sum / float(K2);
+}
+
+}  // namespace btf

@@ -1,0 +1,57 @@
+// Direct illumination with self-shadowing, evaluated from the hit maps. Stored value is the
+// apparent BRDF aBRDF = L_o / (E⊥ cos θi) = Σ_samples f_r(p) · (n·ωi) · V(p, ωi) / cos θi / K².
+// Two visibility modes: the shadow-map test of fig. 4.9 (the light's own hit map, with a
+// slope-scaled bias and 2×2 percentage-closer filtering, docs/conventions.md) and exact shadow
+// rays through the periodic tracer.
+#pragma once
+#include <btf/directions/direction_set.h>
+#include <btf/scene/material.h>
+#include <btf/sim/hit_maps.h>
+
+#include <string>
+#include <vector>
+
+namespace btf {
+
+enum class ShadowMode { Map, Rays };
+ShadowMode parseShadowMode(const std::string& s);
+const char* shadowModeName(ShadowMode m);
+
+struct DirectSettings {
+  ShadowMode shadows = ShadowMode::Map;
+  float biasScale = 1.0f;  // multiplies the slope-scaled shadow-map bias
+};
+
+class DirectIllumination {
+ public:
+  DirectIllumination(const PeriodicTracer& tracer, const std::vector<Material>& materials,
+                     const DirectionSet& dirs, const HitMaps& maps, DirectSettings settings);
+
+  /// aBRDF of texel (i, j) seen from direction `view`, for every light of the set:
+  /// out[l * 3 + c], l in [0, nL). Returns the number of (sample, light) BRDF evaluations made.
+  int64_t evalTexelView(int i, int j, int view, float* out) const;
+  /// Same, for an arbitrary light direction (unit, above the plane) — shadow rays only when the
+  /// light is not in the set, since only the set's directions have shadow maps.
+  Rgb evalTexelViewLight(int i, int j, int view, const DVec3& light) const;
+
+  /// Shadow-map visibility in [0, 1] of point p (on triangle `prim`, geometric normal ng) for
+  /// light `l` of the set.
+  float shadowMapVisibility(int l, const Vec3& p, const Vec3& ng, uint32_t prim) const;
+
+ private:
+  struct LightInfo {
+    Vec3 w;
+    float invCos;       // 1 / cos θi, for the aBRDF division
+    float slopeX, slopeY;  // ωx/ωz, ωy/ωz: projection onto the reference plane
+  };
+  const PeriodicTracer& m_tracer;
+  const TileGeometry& m_geom;
+  const std::vector<Material>& m_materials;
+  const DirectionSet& m_dirs;
+  const HitMaps& m_maps;
+  DirectSettings m_settings;
+  std::vector<LightInfo> m_lights;
+  float m_cell;  // sample spacing on the plane
+};
+
+}  // namespace btf

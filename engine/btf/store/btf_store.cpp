@@ -1,0 +1,310 @@
+#include <btf/core/error.h>
+#include <btf/core/hash.h>
+#include <btf/store/btf_store.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+namespace btf {
+
+namespace {
+
+constexpr char kMagic[8] = {'B', 'T', 'F', 'S', 'T', 'O', 'R', '1'};
+constexpr int kFormatVersion = 1;
+uint64_t alignUp(uint64_t x, uint64_t a) { return (x + a - 1) / a * a; }
+
+struct TableEntry {
+  uint64_t checksum;
+  uint64_t state;  // kDone when the chunk's data is complete
+};
+constexpr uint64_t kDone = 0x454e4f44u;  // "DONE"
+
+std::string sysError(const std::string& path, const std::string& what) {
+  return path + ": " + what + " (" + std::strerror(errno) + ")";
+}
+
+}  // namespace
+
+std::string infoToJson(const BtfInfo& i) {
+  nlohmann::ordered_json j;
+  j["format"] = "btfstudio-raw-btf";
+  j["format_version"] = kFormatVersion;
+  j["convention"] =
+      "aBRDF(u,v,wi,wo) = Lo / (E_perp cos(theta_i)) in 1/sr, RGB float32 little-endian; theta "
+      "from +z, phi from +x counter-clockwise, degrees; wi toward the light, wo toward the camera; "
+      "texel (u,v) ray passes through ((u+0.5)Lx/Nu, (v+0.5)Ly/Nv, 0); layout "
+      "[texel][view][light][rgb], texel = u + Nu*v";
+  j["texels"] = {i.nu, i.nv};
+  j["tile_size"] = {i.Lx, i.Ly};
+  j["directions"]["set"] = i.directionSet;
+  j["directions"]["theta_phi_deg"] = i.dirsDeg;
+  j["chunk_texels"] = i.chunkTexels;
+  j["settings"]["spp"] = i.spp;
+  j["settings"]["shadows"] = i.shadows;
+  j["settings"]["shadow_bias"] = i.shadowBias;
+  j["settings"]["seed"] = i.seed;
+  j["scene"]["name"] = i.sceneName;
+  j["scene"]["hash"] = i.sceneHash;
+  j["scene"]["json"] = i.sceneJson;
+  j["plan"] = i.plan;
+  j["vmf"] = "per direction, per texel: (coverage in [0,1], mean signed hit distance to the "
+             "reference plane along the direction), float32";
+  return j.dump(1);
+}
+
+BtfInfo infoFromJson(const std::string& text, const std::string& file) {
+  BtfInfo i;
+  try {
+    auto j = nlohmann::json::parse(text);
+    if (j.at("format") != "btfstudio-raw-btf") throw Error(file + ": not a raw BTF header");
+    if (j.at("format_version").get<int>() != kFormatVersion)
+      throw Error(file + ": unsupported store version " + j.at("format_version").dump());
+    i.nu = j.at("texels")[0];
+    i.nv = j.at("texels")[1];
+    i.Lx = j.at("tile_size")[0];
+    i.Ly = j.at("tile_size")[1];
+    i.directionSet = j.at("directions").at("set");
+    i.dirsDeg = j.at("directions").at("theta_phi_deg").get<std::vector<std::array<double, 2>>>();
+    i.chunkTexels = j.at("chunk_texels");
+    i.spp = j.at("settings").at("spp");
+    i.shadows = j.at("settings").at("shadows");
+    i.shadowBias = j.at("settings").at("shadow_bias");
+    i.seed = j.at("settings").at("seed");
+    i.sceneName = j.at("scene").at("name");
+    i.sceneHash = j.at("scene").at("hash");
+    i.sceneJson = j.at("scene").at("json");
+    i.plan = j.at("plan");
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error(file + ": malformed BTF header (" + e.what() + ")");
+  }
+  if (i.nu < 1 || i.nv < 1 || i.dirsDeg.empty() || i.chunkTexels < 1)
+    throw Error(file + ": malformed BTF header (empty dimensions)");
+  return i;
+}
+
+BtfLayout BtfLayout::of(const BtfInfo& info, uint64_t headerJsonBytes) {
+  BtfLayout l;
+  l.headerBytes = headerJsonBytes;
+  l.tableOffset = alignUp(24 + headerJsonBytes, 64);
+  l.vmfOffset = alignUp(l.tableOffset + sizeof(TableEntry) * uint64_t(info.chunks()), 4096);
+  l.vmfBytes = uint64_t(info.nDirs()) * uint64_t(info.texels()) * 2 * sizeof(float);
+  l.dataOffset = alignUp(l.vmfOffset + l.vmfBytes + 8, 4096);
+  l.totalBytes = l.dataOffset + uint64_t(info.texels()) * info.texelBytes();
+  return l;
+}
+
+uint64_t btfFileBytes(const BtfInfo& info) {
+  return BtfLayout::of(info, infoToJson(info).size()).totalBytes;
+}
+
+// ---------------------------------------------------------------- writer
+
+BtfWriter::BtfWriter(const std::string& path, const BtfInfo& info, bool resume)
+    : m_path(path), m_partial(path + ".partial"), m_info(info) {
+  const std::string header = infoToJson(info);
+  m_layout = BtfLayout::of(info, header.size());
+  m_done.assign(size_t(info.chunks()), false);
+  const bool exists = std::filesystem::exists(m_partial);
+  if (resume && exists) {
+    // Reuse the partial only if it was made by the very same job.
+    {
+      BtfReader probe(m_partial);
+      if (probe.headerJson() != header)
+        throw Error(m_partial + ": cannot resume: it was made with a different scene or settings "
+                    "(rerun without --resume to start over)");
+    }
+    m_fd = ::open(m_partial.c_str(), O_RDWR);
+    if (m_fd < 0) throw Error(sysError(m_partial, "cannot open for resuming"));
+    std::vector<TableEntry> table(size_t(info.chunks()));
+    if (::pread(m_fd, table.data(), table.size() * sizeof(TableEntry), off_t(m_layout.tableOffset)) !=
+        ssize_t(table.size() * sizeof(TableEntry)))
+      throw Error(sysError(m_partial, "cannot read chunk table"));
+    std::vector<char> buf;
+    for (int c = 0; c < info.chunks(); ++c) {
+      if (table[size_t(c)].state != kDone) continue;
+      const uint64_t bytes = uint64_t(info.chunkEnd(c) - info.chunkBegin(c)) * info.texelBytes();
+      buf.resize(bytes);
+      if (::pread(m_fd, buf.data(), bytes, off_t(m_layout.chunkOffset(info, c))) == ssize_t(bytes) &&
+          checksum64(buf.data(), bytes) == table[size_t(c)].checksum)
+        m_done[size_t(c)] = true;  // verified: keep it
+    }
+    m_resumed = true;
+    return;
+  }
+  std::filesystem::path dir = std::filesystem::path(m_partial).parent_path();
+  if (!dir.empty() && !std::filesystem::exists(dir)) std::filesystem::create_directories(dir);
+  m_fd = ::open(m_partial.c_str(), O_RDWR | O_CREAT | O_TRUNC, 0644);
+  if (m_fd < 0) throw Error(sysError(m_partial, "cannot create"));
+  if (::ftruncate(m_fd, off_t(m_layout.totalBytes)) != 0)
+    throw Error(sysError(m_partial, "cannot size the file to " + std::to_string(m_layout.totalBytes) + " bytes"));
+  const uint64_t hlen = header.size(), hsum = checksum64(header);
+  pwriteAll(kMagic, 8, 0);
+  pwriteAll(&hlen, 8, 8);
+  pwriteAll(&hsum, 8, 16);
+  pwriteAll(header.data(), header.size(), 24);
+  std::vector<TableEntry> table(size_t(info.chunks()), TableEntry{0, 0});
+  pwriteAll(table.data(), table.size() * sizeof(TableEntry), m_layout.tableOffset);
+}
+
+BtfWriter::~BtfWriter() {
+  if (m_fd >= 0) ::close(m_fd);
+}
+
+int BtfWriter::chunksDone() const {
+  int n = 0;
+  for (bool d : m_done) n += d;
+  return n;
+}
+
+void BtfWriter::pwriteAll(const void* data, uint64_t bytes, uint64_t offset) {
+  const char* p = static_cast<const char*>(data);
+  while (bytes > 0) {
+    const ssize_t w = ::pwrite(m_fd, p, std::min<uint64_t>(bytes, 1u << 30), off_t(offset));
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      throw Error(sysError(m_partial, "write failed"));
+    }
+    p += w;
+    bytes -= uint64_t(w);
+    offset += uint64_t(w);
+  }
+}
+
+void BtfWriter::writeVmf(const std::vector<float>& vmf) {
+  BTF_CHECK(vmf.size() * sizeof(float) == m_layout.vmfBytes);
+  for (float v : vmf) BTF_CHECK_MSG(std::isfinite(v), "non-finite VMF value");
+  pwriteAll(vmf.data(), m_layout.vmfBytes, m_layout.vmfOffset);
+  const uint64_t sum = checksum64(vmf.data(), m_layout.vmfBytes);
+  pwriteAll(&sum, 8, m_layout.vmfOffset + m_layout.vmfBytes);
+}
+
+void BtfWriter::writeChunk(int c, const float* data) {
+  const uint64_t bytes = uint64_t(m_info.chunkEnd(c) - m_info.chunkBegin(c)) * m_info.texelBytes();
+  for (uint64_t k = 0; k < bytes / sizeof(float); ++k)
+    BTF_CHECK_MSG(std::isfinite(data[k]), "non-finite aBRDF value about to be written");
+  pwriteAll(data, bytes, m_layout.chunkOffset(m_info, c));
+  // Data first, then its table entry: a kill in between leaves the chunk pending.
+  if (::fdatasync(m_fd) != 0) throw Error(sysError(m_partial, "fdatasync failed"));
+  const TableEntry e{checksum64(data, bytes), kDone};
+  pwriteAll(&e, sizeof e, m_layout.tableOffset + sizeof(TableEntry) * uint64_t(c));
+  m_done[size_t(c)] = true;
+}
+
+void BtfWriter::finish() {
+  for (size_t c = 0; c < m_done.size(); ++c)
+    if (!m_done[c]) throw Error(m_partial + ": cannot finish: chunk " + std::to_string(c) + " missing");
+  if (::fsync(m_fd) != 0) throw Error(sysError(m_partial, "fsync failed"));
+  ::close(m_fd);
+  m_fd = -1;
+  if (std::rename(m_partial.c_str(), m_path.c_str()) != 0)
+    throw Error(sysError(m_path, "cannot rename the finished partial file into place"));
+  m_finished = true;
+}
+
+// ---------------------------------------------------------------- reader
+
+BtfReader::BtfReader(const std::string& path) : m_path(path) {
+  m_fd = ::open(path.c_str(), O_RDONLY);
+  if (m_fd < 0) throw Error(sysError(path, "cannot open BTF"));
+  struct stat st;
+  if (::fstat(m_fd, &st) != 0) throw Error(sysError(path, "cannot stat"));
+  const uint64_t size = uint64_t(st.st_size);
+  char magic[8];
+  uint64_t hlen = 0, hsum = 0;
+  if (size < 24) throw Error(path + ": not a BTF store (file too short)");
+  preadAll(magic, 8, 0);
+  if (std::memcmp(magic, kMagic, 8) != 0) throw Error(path + ": not a BTF store (bad magic bytes)");
+  preadAll(&hlen, 8, 8);
+  preadAll(&hsum, 8, 16);
+  if (hlen > size - 24 || hlen > (256u << 20)) throw Error(path + ": truncated or corrupt header");
+  m_headerJson.resize(hlen);
+  preadAll(m_headerJson.data(), hlen, 24);
+  if (checksum64(m_headerJson) != hsum) throw Error(path + ": header checksum mismatch (corrupted file)");
+  m_info = infoFromJson(m_headerJson, path);
+  m_layout = BtfLayout::of(m_info, hlen);
+  if (size != m_layout.totalBytes)
+    throw Error(path + ": truncated or padded file: expected " + std::to_string(m_layout.totalBytes) +
+                " bytes, found " + std::to_string(size));
+  std::vector<TableEntry> table(size_t(m_info.chunks()));
+  preadAll(table.data(), table.size() * sizeof(TableEntry), m_layout.tableOffset);
+  for (const auto& e : table) m_checksums.push_back(e.state == kDone ? e.checksum : 0);
+}
+
+BtfReader::~BtfReader() {
+  if (m_fd >= 0) ::close(m_fd);
+}
+
+void BtfReader::preadAll(void* data, uint64_t bytes, uint64_t offset) const {
+  char* p = static_cast<char*>(data);
+  while (bytes > 0) {
+    const ssize_t r = ::pread(m_fd, p, std::min<uint64_t>(bytes, 1u << 30), off_t(offset));
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) throw Error(m_path + ": read failed or file truncated at offset " + std::to_string(offset));
+    p += r;
+    bytes -= uint64_t(r);
+    offset += uint64_t(r);
+  }
+}
+
+std::vector<float> BtfReader::readChunk(int c) const {
+  if (c < 0 || c >= m_info.chunks()) throw Error(m_path + ": chunk index out of range");
+  const uint64_t bytes = uint64_t(m_info.chunkEnd(c) - m_info.chunkBegin(c)) * m_info.texelBytes();
+  std::vector<float> out(bytes / sizeof(float));
+  preadAll(out.data(), bytes, m_layout.chunkOffset(m_info, c));
+  if (checksum64(out.data(), bytes) != m_checksums[size_t(c)])
+    throw Error(m_path + ": chunk " + std::to_string(c) + " checksum mismatch (corrupted or incomplete data)");
+  return out;
+}
+
+std::vector<float> BtfReader::readTexel(int64_t t) const {
+  if (t < 0 || t >= m_info.texels()) throw Error(m_path + ": texel index out of range");
+  std::vector<float> out(m_info.texelBytes() / sizeof(float));
+  preadAll(out.data(), m_info.texelBytes(), m_layout.dataOffset + uint64_t(t) * m_info.texelBytes());
+  return out;
+}
+
+std::vector<float> BtfReader::readImage(int view, int light) const {
+  const int n = m_info.nDirs();
+  if (view < 0 || view >= n || light < 0 || light >= n) throw Error(m_path + ": direction index out of range");
+  std::vector<float> out(size_t(m_info.texels()) * 3);
+  const uint64_t within = (uint64_t(view) * n + uint64_t(light)) * 3 * sizeof(float);
+  for (int64_t t = 0; t < m_info.texels(); ++t)
+    preadAll(&out[size_t(t) * 3], 3 * sizeof(float), m_layout.dataOffset + uint64_t(t) * m_info.texelBytes() + within);
+  return out;
+}
+
+std::vector<float> BtfReader::readVmf(int dir) const {
+  if (dir < 0 || dir >= m_info.nDirs()) throw Error(m_path + ": direction index out of range");
+  std::vector<float> out(size_t(m_info.texels()) * 2);
+  preadAll(out.data(), out.size() * sizeof(float),
+           m_layout.vmfOffset + uint64_t(dir) * uint64_t(m_info.texels()) * 2 * sizeof(float));
+  return out;
+}
+
+BtfReader::Verification BtfReader::verify() const {
+  Verification v;
+  v.chunks = m_info.chunks();
+  for (int c = 0; c < m_info.chunks(); ++c) {
+    try {
+      readChunk(c);
+    } catch (const Error&) {
+      v.badChunks.push_back(c);
+    }
+  }
+  std::vector<float> vmf(m_layout.vmfBytes / sizeof(float));
+  uint64_t sum = 0;
+  preadAll(vmf.data(), m_layout.vmfBytes, m_layout.vmfOffset);
+  preadAll(&sum, 8, m_layout.vmfOffset + m_layout.vmfBytes);
+  v.vmfOk = checksum64(vmf.data(), m_layout.vmfBytes) == sum;
+  return v;
+}
+
+}  // namespace btf
