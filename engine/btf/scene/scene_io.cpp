@@ -159,6 +159,8 @@ Scene parseScene(const std::string& text, const std::string& source,
   } catch (const json::parse_error& e) {
     throw Error(source + ":" + std::to_string(lineOf(text, e.byte > 0 ? e.byte - 1 : 0)) +
                 ": JSON syntax error: " + e.what());
+  } catch (const json::exception& e) {  // e.g. a number literal that overflows a double
+    throw Error(source + ": JSON error: " + e.what());
   }
   if (!root.is_object()) c.fail("", "the scene must be a JSON object");
   Scene s;

@@ -64,7 +64,7 @@ PeriodicTracer::PeriodicTracer(const TileGeometry& g) : m_geom(g), m_impl(std::m
     const int j0 = int(std::ceil((-m - hi.y) / g.Ly)), j1 = int(std::floor((g.Ly + m - lo.y) / g.Ly));
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i) {
-        const Vec3 off(float(-i * g.Lx), float(-j * g.Ly), 0.f);
+        const Vec3 off(float(i * g.Lx), float(j * g.Ly), 0.f);
         const uint32_t base = uint32_t(verts.size() / 3);
         for (const Vec3& p : {a, b, c}) {
           const Vec3 q = p + off;

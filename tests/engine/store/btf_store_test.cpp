@@ -111,7 +111,7 @@ TEST(BtfStore, TruncatedAndForeignFilesAreErrors) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
   }
-  std::ofstream(dir / "x.btf") << "!DFMF08FCR not ours";
+  std::ofstream(dir / "x.btf") << "!DFMF08FCR this is somebody else's container format";
   try {
     BtfReader r((dir / "x.btf").string());
     FAIL();
