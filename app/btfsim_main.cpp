@@ -68,6 +68,10 @@ int main(int argc, char** argv) {
   auto* sc = app.add_subcommand("schema", "print the scene file's JSON Schema");
   sc->add_option("-o,--output", schemaOut, "write to this file instead of stdout");
 
+  std::string docOut;
+  auto* sd = app.add_subcommand("scene-doc", "print the markdown reference of every scene parameter");
+  sd->add_option("-o,--output", docOut, "write to this file instead of stdout");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -80,6 +84,7 @@ int main(int argc, char** argv) {
     if (*i) return info(in);
     if (*bn) return bench(be);
     if (*sc) return schema(schemaOut);
+    if (*sd) return sceneDoc(docOut);
   } catch (const btf::Error& e) {
     std::fprintf(stderr, "btfsim: error: %s\n", e.what());
     return 1;

@@ -370,8 +370,8 @@ int bench(const BenchArgs& a) {
   return 0;
 }
 
-int schema(const std::string& output) {
-  const std::string s = sceneJsonSchema();
+namespace {
+int writeText(const std::string& s, const std::string& output) {
   if (output.empty()) {
     std::cout << s;
   } else {
@@ -381,5 +381,9 @@ int schema(const std::string& output) {
   }
   return 0;
 }
+}  // namespace
+
+int schema(const std::string& output) { return writeText(sceneJsonSchema(), output); }
+int sceneDoc(const std::string& output) { return writeText(sceneParamsMarkdown(), output); }
 
 }  // namespace btf::cli

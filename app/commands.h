@@ -48,6 +48,7 @@ struct BenchArgs {
 int bench(const BenchArgs& a);
 
 int schema(const std::string& output);
+int sceneDoc(const std::string& output);
 
 /// "64" → (64, 64); "64x32" → (64, 32). Throws btf::Error naming the text.
 void parseTexels(const std::string& s, int* nu, int* nv);

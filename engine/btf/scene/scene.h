@@ -53,6 +53,8 @@ Scene loadScene(const std::filesystem::path& path);
 std::string sceneToJson(const Scene& scene);
 /// JSON Schema (draft 2020-12) of the scene file, generated from the declarations.
 std::string sceneJsonSchema();
+/// Markdown reference of every declared type and parameter (docs/scene-format.md).
+std::string sceneParamsMarkdown();
 /// Resolves a path parameter against the scene's folder.
 std::filesystem::path resolvePath(const Scene& scene, const std::string& p);
 

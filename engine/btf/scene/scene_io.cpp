@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -375,6 +376,65 @@ std::string sceneJsonSchema() {
   props["parts"] = json{{"type", "array"}, {"minItems", 1}, {"items", json{{"oneOf", parts}}}};
   s["properties"] = props;
   return s.dump(2) + "\n";
+}
+
+}  // namespace btf
+
+namespace btf {
+
+std::string sceneParamsMarkdown() {
+  std::ostringstream o;
+  auto fmt = [](double v) {
+    std::ostringstream s;
+    s.precision(12);
+    s << v;
+    return s.str();
+  };
+  auto table = [&](const TypeDecl& t) {
+    o << t.doc << "\n\n| key | type | range | default | meaning |\n|---|---|---|---|---|\n";
+    for (const auto& p : t.params) {
+      std::string range;
+      if (p.type == ParamType::Enum) {
+        for (const auto& c : p.choices) range += (range.empty() ? "" : ", ") + ("`" + c + "`");
+      } else if (paramArity(p.type) > 0 && p.type != ParamType::Bool) {
+        range = (std::isfinite(p.min) ? (p.minExclusive ? "> " : "≥ ") + fmt(p.min) : std::string()) +
+                (std::isfinite(p.min) && std::isfinite(p.max) ? ", " : "") +
+                (std::isfinite(p.max) ? "≤ " + fmt(p.max) : std::string());
+      }
+      std::string def;
+      if (p.required) def = "required";
+      else if (paramArity(p.type) == 0) def = "`" + p.defStr + "`";
+      else if (p.type == ParamType::Bool) def = p.def[0] != 0 ? "`true`" : "`false`";
+      else {
+        for (double d : p.def) def += (def.empty() ? "" : ", ") + fmt(d);
+        if (p.def.size() > 1) def = "[" + def + "]";
+        def = "`" + def + "`";
+      }
+      o << "| `" << p.name << "` | " << paramTypeName(p.type) << " | " << range << " | " << def << " | " << p.doc
+        << " |\n";
+    }
+    o << "\n";
+  };
+  o << "### Tile (`tile`)\n\n";
+  table(tileDecl());
+  o << "### Simulation defaults (`simulation`)\n\n";
+  table(simulationDecl());
+  o << "### Materials\n\n";
+  for (const auto& t : materialTypes()) {
+    o << "#### `" << t.name << "`\n\n";
+    table(t);
+  }
+  o << "### Parts\n\nEvery part also takes `name` (string), `material` (required: a key of `materials`), "
+       "`transform` and `array`.\n\n";
+  for (const auto& t : partTypes()) {
+    o << "#### `" << t.name << "`\n\n";
+    table(t);
+  }
+  o << "### `transform`\n\n";
+  table(transformDecl());
+  o << "### `array`\n\n";
+  table(arrayDecl());
+  return o.str();
 }
 
 }  // namespace btf

@@ -52,6 +52,7 @@ class DirectIllumination {
   DirectSettings m_settings;
   std::vector<LightInfo> m_lights;
   float m_cell;  // sample spacing on the plane
+  float m_toSampleX, m_toSampleY, m_invSu, m_invSv;
 };
 
 }  // namespace btf

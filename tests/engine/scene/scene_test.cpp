@@ -149,6 +149,9 @@ TEST(SceneFile, SchemaDeclaresEveryTypeAndIsCommitted) {
   for (const auto& t : partTypes()) EXPECT_NE(schema.find("\"const\": \"" + t.name + "\""), std::string::npos);
   // The committed schema is the generated one (regenerate with `btfsim schema -o docs/scene.schema.json`).
   EXPECT_EQ(test::readFile(std::filesystem::path(test::sourceDir()) / "docs" / "scene.schema.json"), schema);
+  // The reference part of docs/scene-format.md is the generated one (`btfsim scene-doc`).
+  const std::string doc = test::readFile(std::filesystem::path(test::sourceDir()) / "docs" / "scene-format.md");
+  EXPECT_NE(doc.find(sceneParamsMarkdown()), std::string::npos) << "regenerate the reference of docs/scene-format.md";
 }
 
 }  // namespace
