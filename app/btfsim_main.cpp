@@ -1,8 +1,8 @@
 // btfsim: the engine from the command line (docs/cli.md). Argument parsing only; the commands
 // live in commands.cpp. Errors print as one line on stderr with a nonzero exit.
-#include <CLI/CLI.hpp>
 #include <btf/core/error.h>
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 
 #include "commands.h"
@@ -39,7 +39,8 @@ int main(int argc, char** argv) {
   b->add_flag("--json", br.json, "JSON output");
 
   SliceArgs sl;
-  auto* c = app.add_subcommand("slice", "an image of a BTF: spatial (view, light) or a hemisphere of views");
+  auto* c = app.add_subcommand("slice",
+                               "an image of a BTF: spatial (view, light) or a hemisphere of views");
   c->add_option("btf", sl.btf, "BTF store")->required();
   c->add_option("-o,--output", sl.output, "image file (.exr linear, .png tone mapped)")->required();
   c->add_option("--view", sl.view, "θ,φ of the view (degrees): spatial image");
@@ -69,7 +70,8 @@ int main(int argc, char** argv) {
   sc->add_option("-o,--output", schemaOut, "write to this file instead of stdout");
 
   std::string docOut;
-  auto* sd = app.add_subcommand("scene-doc", "print the markdown reference of every scene parameter");
+  auto* sd =
+      app.add_subcommand("scene-doc", "print the markdown reference of every scene parameter");
   sd->add_option("-o,--output", docOut, "write to this file instead of stdout");
 
   try {

@@ -25,7 +25,8 @@ void parseTexels(const std::string& s, int* nu, int* nv) {
   int a = 0, b = 0;
   char x = 0, extra = 0;
   const int n = std::sscanf(s.c_str(), "%d%c%d%c", &a, &x, &b, &extra);
-  if (n == 1) b = a;
+  if (n == 1)
+    b = a;
   else if (!(n == 3 && (x == 'x' || x == 'X')))
     throw Error("invalid --texels '" + s + "': expected N or NUxNV, e.g. 64 or 64x32");
   if (a < 1 || b < 1 || a > 16384 || b > 16384)
@@ -47,14 +48,15 @@ void parseAnglePair(const std::string& s, const std::string& what, double* theta
 namespace {
 
 void printEstimate(const SimEstimate& e, const SimOptions& o) {
-  std::fprintf(stderr,
-               "estimate: %s (hit maps %s, aBRDF %s) on %d thread(s); memory %s of a %s budget; "
-               "disk %s (%s free); %d chunk(s) of %d texel(s)\n",
-               formatSeconds(e.seconds).c_str(), formatSeconds(e.hitMapSeconds).c_str(),
-               formatSeconds(e.evalSeconds).c_str(), e.threads, formatBytes(double(e.memoryBytes)).c_str(),
-               formatBytes(double(o.memoryBudget)).c_str(), formatBytes(double(e.diskBytes)).c_str(),
-               e.freeDiskBytes ? formatBytes(double(e.freeDiskBytes)).c_str() : "?", e.chunks,
-               e.chunkTexels);
+  std::fprintf(
+      stderr,
+      "estimate: %s (hit maps %s, aBRDF %s) on %d thread(s); memory %s of a %s budget; "
+      "disk %s (%s free); %d chunk(s) of %d texel(s)\n",
+      formatSeconds(e.seconds).c_str(), formatSeconds(e.hitMapSeconds).c_str(),
+      formatSeconds(e.evalSeconds).c_str(), e.threads, formatBytes(double(e.memoryBytes)).c_str(),
+      formatBytes(double(o.memoryBudget)).c_str(), formatBytes(double(e.diskBytes)).c_str(),
+      e.freeDiskBytes ? formatBytes(double(e.freeDiskBytes)).c_str() : "?", e.chunks,
+      e.chunkTexels);
 }
 
 }  // namespace
@@ -107,14 +109,15 @@ int simulate(const SimulateArgs& a) {
     std::cout << j.dump(2) << std::endl;
   } else {
     std::printf("wrote %s (%s)\n", r.output.c_str(), formatBytes(double(r.outputBytes)).c_str());
-    std::printf("  %d x %d texels, %d directions (%s), spp %d, shadows %s, %d thread(s)\n", o.nu, o.nv,
-                job.directions().size(), job.directions().name().c_str(), o.spp, shadowModeName(o.shadows),
-                est.threads);
+    std::printf("  %d x %d texels, %d directions (%s), spp %d, shadows %s, %d thread(s)\n", o.nu,
+                o.nv, job.directions().size(), job.directions().name().c_str(), o.spp,
+                shadowModeName(o.shadows), est.threads);
     std::printf("  wall %s: hit maps %s (%.2f M rays/s), aBRDF %s (%.2f M values/s), write %s\n",
-                formatSeconds(r.wallSeconds).c_str(), formatSeconds(r.hitMapSeconds).c_str(), rayRate / 1e6,
-                formatSeconds(r.evalSeconds).c_str(), evalRate / 1e6, formatSeconds(r.writeSeconds).c_str());
-    std::printf("  peak memory %s; chunks %d (%d resumed)\n", formatBytes(double(r.peakRssBytes)).c_str(),
-                r.chunks, r.chunksResumed);
+                formatSeconds(r.wallSeconds).c_str(), formatSeconds(r.hitMapSeconds).c_str(),
+                rayRate / 1e6, formatSeconds(r.evalSeconds).c_str(), evalRate / 1e6,
+                formatSeconds(r.writeSeconds).c_str());
+    std::printf("  peak memory %s; chunks %d (%d resumed)\n",
+                formatBytes(double(r.peakRssBytes)).c_str(), r.chunks, r.chunksResumed);
   }
   return 0;
 }
@@ -159,7 +162,8 @@ std::vector<DirectionPair> readPairs(const BrdfArgs& a, std::vector<std::array<d
 }  // namespace
 
 int brdf(const BrdfArgs& a) {
-  if (a.samples < 1 || a.samples > 4096) throw Error("invalid --spp: samples per axis must be 1..4096");
+  if (a.samples < 1 || a.samples > 4096)
+    throw Error("invalid --spp: samples per axis must be 1..4096");
   const Scene scene = loadScene(a.scene);
   std::vector<std::array<double, 4>> deg;
   const auto pairs = readPairs(a, &deg);
@@ -170,8 +174,11 @@ int brdf(const BrdfArgs& a) {
   if (a.json) {
     json arr = json::array();
     for (size_t k = 0; k < vals.size(); ++k)
-      arr.push_back({{"theta_i", deg[k][0]}, {"phi_i", deg[k][1]}, {"theta_o", deg[k][2]},
-                     {"phi_o", deg[k][3]}, {"abrdf", {vals[k].x, vals[k].y, vals[k].z}}});
+      arr.push_back({{"theta_i", deg[k][0]},
+                     {"phi_i", deg[k][1]},
+                     {"theta_o", deg[k][2]},
+                     {"phi_o", deg[k][3]},
+                     {"abrdf", {vals[k].x, vals[k].y, vals[k].z}}});
     json j;
     j["scene"] = scene.name;
     j["samples"] = a.samples * a.samples;
@@ -180,8 +187,8 @@ int brdf(const BrdfArgs& a) {
   } else {
     std::printf("theta_i,phi_i,theta_o,phi_o,r,g,b\n");
     for (size_t k = 0; k < vals.size(); ++k)
-      std::printf("%g,%g,%g,%g,%.7g,%.7g,%.7g\n", deg[k][0], deg[k][1], deg[k][2], deg[k][3], vals[k].x,
-                  vals[k].y, vals[k].z);
+      std::printf("%g,%g,%g,%g,%.7g,%.7g,%.7g\n", deg[k][0], deg[k][1], deg[k][2], deg[k][3],
+                  vals[k].x, vals[k].y, vals[k].z);
   }
   return 0;
 }
@@ -190,7 +197,8 @@ namespace {
 
 DirectionSet storeDirections(const BtfReader& r) {
   DirectionSet d = DirectionSet::fromName(r.info().directionSet);
-  if (d.size() != r.info().nDirs()) throw Error("direction set of the store does not match its header");
+  if (d.size() != r.info().nDirs())
+    throw Error("direction set of the store does not match its header");
   return d;
 }
 
@@ -205,7 +213,8 @@ int slice(const SliceArgs& a) {
   const auto lw = dirs.interpolate(deg2rad(tl), deg2rad(pl));
   const float scale = float(kPi) * a.exposure;
   if (!a.view.empty() == !a.texel.empty())
-    throw Error("slice needs exactly one of --view θ,φ (spatial image) or --texel u,v|avg (hemisphere)");
+    throw Error(
+        "slice needs exactly one of --view θ,φ (spatial image) or --texel u,v|avg (hemisphere)");
   if (!a.view.empty()) {
     double tv, pv;
     parseAnglePair(a.view, "--view", &tv, &pv);
@@ -218,8 +227,8 @@ int slice(const SliceArgs& a) {
         for (size_t k = 0; k < img.size(); ++k) img[k] += w * part[k];
       }
     writeRgbImage(a.output, I.nu, I.nv, img, scale);
-    std::printf("wrote %s: %dx%d texels, view (%g, %g), light (%g, %g) degrees\n", a.output.c_str(), I.nu,
-                I.nv, tv, pv, tl, pl);
+    std::printf("wrote %s: %dx%d texels, view (%g, %g), light (%g, %g) degrees\n", a.output.c_str(),
+                I.nu, I.nv, tv, pv, tl, pl);
     return 0;
   }
   if (a.size < 8 || a.size > 8192) throw Error("invalid --size: must be 8..8192 pixels");
@@ -230,7 +239,8 @@ int slice(const SliceArgs& a) {
     for (int v = 0; v < n; ++v)
       for (const auto& l : lw)
         for (int c = 0; c < 3; ++c)
-          perView[size_t(v) * 3 + c] += w * float(l.weight) * m[(size_t(v) * n + size_t(l.index)) * 3 + c];
+          perView[size_t(v) * 3 + c] +=
+              w * float(l.weight) * m[(size_t(v) * n + size_t(l.index)) * 3 + c];
   };
   std::string what;
   if (a.texel == "avg") {
@@ -268,8 +278,8 @@ int slice(const SliceArgs& a) {
           img[(size_t(j) * S + i) * 3 + c] += float(v.weight) * perView[size_t(v.index) * 3 + c];
     }
   writeRgbImage(a.output, S, S, img, scale);
-  std::printf("wrote %s: aBRDF over views of the %s, light (%g, %g) degrees\n", a.output.c_str(), what.c_str(),
-              tl, pl);
+  std::printf("wrote %s: aBRDF over views of the %s, light (%g, %g) degrees\n", a.output.c_str(),
+              what.c_str(), tl, pl);
   return 0;
 }
 
@@ -286,14 +296,15 @@ int info(const InfoArgs& a) {
     j["vmf_ok"] = v.vmfOk;
     std::cout << j.dump(2) << std::endl;
   } else {
-    std::printf("%s: raw BTF store, %s\n", a.btf.c_str(), formatBytes(double(r.layout().totalBytes)).c_str());
+    std::printf("%s: raw BTF store, %s\n", a.btf.c_str(),
+                formatBytes(double(r.layout().totalBytes)).c_str());
     std::printf("  scene        %s (hash %s)\n", I.sceneName.c_str(), I.sceneHash.c_str());
     std::printf("  tile         %g x %g\n", I.Lx, I.Ly);
     std::printf("  texels       %d x %d\n", I.nu, I.nv);
-    std::printf("  directions   %s (%d, shared by view and light; %lld pairs)\n", I.directionSet.c_str(),
-                I.nDirs(), static_cast<long long>(I.nDirs()) * I.nDirs());
-    std::printf("  settings     spp %d, shadows %s (bias %g), seed %llu\n", I.spp, I.shadows.c_str(),
-                I.shadowBias, static_cast<unsigned long long>(I.seed));
+    std::printf("  directions   %s (%d, shared by view and light; %lld pairs)\n",
+                I.directionSet.c_str(), I.nDirs(), static_cast<long long>(I.nDirs()) * I.nDirs());
+    std::printf("  settings     spp %d, shadows %s (bias %g), seed %llu\n", I.spp,
+                I.shadows.c_str(), I.shadowBias, static_cast<unsigned long long>(I.seed));
     std::printf("  plan         %s\n", I.plan.c_str());
     std::printf("  chunks       %d of %d texel(s)\n", I.chunks(), I.chunkTexels);
     std::printf("  checksums    %s", ok ? "all verified\n" : "MISMATCH:");
@@ -303,8 +314,9 @@ int info(const InfoArgs& a) {
       std::printf("\n");
     }
   }
-  if (!ok) throw Error(a.btf + ": corrupted: " + std::to_string(v.badChunks.size()) + " bad chunk(s)" +
-                       (v.vmfOk ? "" : ", bad visibility map"));
+  if (!ok)
+    throw Error(a.btf + ": corrupted: " + std::to_string(v.badChunks.size()) + " bad chunk(s)" +
+                (v.vmfOk ? "" : ", bad visibility map"));
   return 0;
 }
 
@@ -334,7 +346,8 @@ int bench(const BenchArgs& a) {
       rays.push_back(double(r.hitMapRays) / r.hitMapSeconds);
       rates.push_back(double(r.abrdfValues) / r.evalSeconds);
       rss.push_back(double(r.peakRssBytes));
-      std::fprintf(stderr, "bench %s run %d/%d: %.2f s (hit maps %.2f s, aBRDF %.2f s, %.1f M values/s)\n",
+      std::fprintf(stderr,
+                   "bench %s run %d/%d: %.2f s (hit maps %.2f s, aBRDF %.2f s, %.1f M values/s)\n",
                    mode.c_str(), k + 1, a.repeat, r.wallSeconds, r.hitMapSeconds, r.evalSeconds,
                    rates.back() / 1e6);
     }
@@ -360,11 +373,12 @@ int bench(const BenchArgs& a) {
     j["memory_budget_bytes"] = o.memoryBudget;
     results.push_back(j);
     if (!a.json)
-      std::printf("%-5s %dx%d texels x %s^2, spp %d, %d thread(s): median wall %.2f s = hit maps %.2f s "
-                  "(%.2f M rays/s) + aBRDF %.2f s (%.1f M values/s); peak RSS %s\n",
-                  mode.c_str(), o.nu, o.nv, job.directions().name().c_str(), o.spp, est.threads, median(wall),
-                  median(hit), median(rays) / 1e6, median(eval), median(rates) / 1e6,
-                  formatBytes(*std::max_element(rss.begin(), rss.end())).c_str());
+      std::printf(
+          "%-5s %dx%d texels x %s^2, spp %d, %d thread(s): median wall %.2f s = hit maps %.2f s "
+          "(%.2f M rays/s) + aBRDF %.2f s (%.1f M values/s); peak RSS %s\n",
+          mode.c_str(), o.nu, o.nv, job.directions().name().c_str(), o.spp, est.threads,
+          median(wall), median(hit), median(rays) / 1e6, median(eval), median(rates) / 1e6,
+          formatBytes(*std::max_element(rss.begin(), rss.end())).c_str());
   }
   if (a.json) std::cout << results.dump(2) << std::endl;
   return 0;
@@ -383,7 +397,11 @@ int writeText(const std::string& s, const std::string& output) {
 }
 }  // namespace
 
-int schema(const std::string& output) { return writeText(sceneJsonSchema(), output); }
-int sceneDoc(const std::string& output) { return writeText(sceneParamsMarkdown(), output); }
+int schema(const std::string& output) {
+  return writeText(sceneJsonSchema(), output);
+}
+int sceneDoc(const std::string& output) {
+  return writeText(sceneParamsMarkdown(), output);
+}
 
 }  // namespace btf::cli

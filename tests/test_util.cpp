@@ -10,21 +10,26 @@
 
 namespace btf::test {
 
-std::string sourceDir() { return BTF_SOURCE_DIR; }
+std::string sourceDir() {
+  return BTF_SOURCE_DIR;
+}
 
 Scene sceneFromJson(const std::string& json, const std::filesystem::path& dir) {
-  return parseScene(json, "test.json", dir.empty() ? std::filesystem::path(sourceDir()) / "resources" : dir);
+  return parseScene(json, "test.json",
+                    dir.empty() ? std::filesystem::path(sourceDir()) / "resources" : dir);
 }
 
 std::filesystem::path tempDir(const std::string& name) {
-  auto p = std::filesystem::temp_directory_path() / ("btf_test_" + std::to_string(::getpid()) + "_" + name);
+  auto p = std::filesystem::temp_directory_path() /
+           ("btf_test_" + std::to_string(::getpid()) + "_" + name);
   std::filesystem::remove_all(p);
   std::filesystem::create_directories(p);
   return p;
 }
 
 int runBtfsim(const std::string& args, std::string* output, const std::string& env) {
-  const std::string cmd = env + (env.empty() ? "" : " ") + BTF_BTFSIM + std::string(" ") + args + " 2>&1";
+  const std::string cmd =
+      env + (env.empty() ? "" : " ") + BTF_BTFSIM + std::string(" ") + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return -1;
   std::array<char, 4096> buf;

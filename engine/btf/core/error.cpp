@@ -3,8 +3,8 @@
 namespace btf::detail {
 
 void checkFailed(const char* expr, const char* file, int line, const std::string& msg) {
-  std::string s = std::string("internal check failed: ") + expr + " at " + file + ":" +
-                  std::to_string(line);
+  std::string s =
+      std::string("internal check failed: ") + expr + " at " + file + ":" + std::to_string(line);
   if (!msg.empty()) s += " (" + msg + ")";
   throw Error(s);
 }

@@ -18,12 +18,12 @@ namespace detail {
 
 }  // namespace btf
 
-#define BTF_CHECK(cond)                                               \
-  do {                                                                \
+#define BTF_CHECK(cond)                                                     \
+  do {                                                                      \
     if (!(cond)) ::btf::detail::checkFailed(#cond, __FILE__, __LINE__, ""); \
   } while (0)
-#define BTF_CHECK_MSG(cond, msg)                                          \
-  do {                                                                    \
+#define BTF_CHECK_MSG(cond, msg)                                               \
+  do {                                                                         \
     if (!(cond)) ::btf::detail::checkFailed(#cond, __FILE__, __LINE__, (msg)); \
   } while (0)
 #ifdef NDEBUG

@@ -14,8 +14,12 @@ inline constexpr double kPi = 3.14159265358979323846;
 inline constexpr float kPiF = 3.14159265358979323846f;
 inline constexpr float kInvPiF = 0.318309886183790671538f;
 
-inline double deg2rad(double d) { return d * (kPi / 180.0); }
-inline double rad2deg(double r) { return r * (180.0 / kPi); }
+inline double deg2rad(double d) {
+  return d * (kPi / 180.0);
+}
+inline double rad2deg(double r) {
+  return r * (180.0 / kPi);
+}
 
 /// Unit direction from spherical angles in radians: θ from +z, φ from +x counter-clockwise.
 inline DVec3 sphericalDir(double theta, double phi) {

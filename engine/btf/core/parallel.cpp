@@ -25,9 +25,12 @@ void parallelForChunks(int64_t count, int64_t grain,
 
 ThreadLimit::ThreadLimit(int threads) {
   if (threads > 0)
-    m_control = new tbb::global_control(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    m_control =
+        new tbb::global_control(tbb::global_control::max_allowed_parallelism, size_t(threads));
 }
-ThreadLimit::~ThreadLimit() { delete static_cast<tbb::global_control*>(m_control); }
+ThreadLimit::~ThreadLimit() {
+  delete static_cast<tbb::global_control*>(m_control);
+}
 int ThreadLimit::current() {
   return int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
 }

@@ -17,7 +17,9 @@ inline uint64_t hashKeys(uint64_t seed, uint64_t a, uint64_t b = 0, uint64_t c =
 }
 
 /// Uniform float in [0, 1) from 64 random bits (24 mantissa bits, never 1).
-inline float uniformFloat(uint64_t bits) { return float(bits >> 40) * (1.0f / 16777216.0f); }
+inline float uniformFloat(uint64_t bits) {
+  return float(bits >> 40) * (1.0f / 16777216.0f);
+}
 
 /// A small sequential generator (splitmix64) for streams that are seeded per task.
 class Rng {

@@ -40,17 +40,24 @@ uint64_t parseBytes(const std::string& text) {
   try {
     v = std::stod(text, &i);
   } catch (...) {
-    throw Error("invalid size '" + text + "': expected a number with an optional K, M, G or T suffix");
+    throw Error("invalid size '" + text +
+                "': expected a number with an optional K, M, G or T suffix");
   }
   std::string unit = text.substr(i);
   for (auto& c : unit) c = char(std::toupper(static_cast<unsigned char>(c)));
   double mult = 1;
-  if (unit.empty() || unit == "B") mult = 1;
-  else if (unit == "K" || unit == "KB" || unit == "KIB") mult = 1024.0;
-  else if (unit == "M" || unit == "MB" || unit == "MIB") mult = 1024.0 * 1024;
-  else if (unit == "G" || unit == "GB" || unit == "GIB") mult = 1024.0 * 1024 * 1024;
-  else if (unit == "T" || unit == "TB" || unit == "TIB") mult = 1024.0 * 1024 * 1024 * 1024;
-  else throw Error("invalid size '" + text + "': unknown unit '" + unit + "' (use K, M, G or T)");
+  if (unit.empty() || unit == "B")
+    mult = 1;
+  else if (unit == "K" || unit == "KB" || unit == "KIB")
+    mult = 1024.0;
+  else if (unit == "M" || unit == "MB" || unit == "MIB")
+    mult = 1024.0 * 1024;
+  else if (unit == "G" || unit == "GB" || unit == "GIB")
+    mult = 1024.0 * 1024 * 1024;
+  else if (unit == "T" || unit == "TB" || unit == "TIB")
+    mult = 1024.0 * 1024 * 1024 * 1024;
+  else
+    throw Error("invalid size '" + text + "': unknown unit '" + unit + "' (use K, M, G or T)");
   if (!std::isfinite(v) || v <= 0) throw Error("invalid size '" + text + "': must be positive");
   return uint64_t(v * mult);
 }
@@ -70,9 +77,12 @@ std::string formatBytes(double b) {
 std::string formatSeconds(double s) {
   char buf[64];
   if (!std::isfinite(s) || s < 0) return "?";
-  if (s < 60) std::snprintf(buf, sizeof buf, "%.1f s", s);
-  else if (s < 3600) std::snprintf(buf, sizeof buf, "%d min %02d s", int(s / 60), int(s) % 60);
-  else std::snprintf(buf, sizeof buf, "%d h %02d min", int(s / 3600), (int(s) % 3600) / 60);
+  if (s < 60)
+    std::snprintf(buf, sizeof buf, "%.1f s", s);
+  else if (s < 3600)
+    std::snprintf(buf, sizeof buf, "%d min %02d s", int(s / 60), int(s) % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%d h %02d min", int(s / 3600), (int(s) % 3600) / 60);
   return buf;
 }
 

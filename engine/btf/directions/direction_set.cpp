@@ -30,7 +30,8 @@ DirectionSet DirectionSet::fromRings(const std::string& name,
 
 DirectionSet DirectionSet::bonn81() {
   // UBO2003: θ = 0, 15, 30, 45, 60, 75° with 1, 6, 12, 18, 20, 24 azimuths (81 in all).
-  return fromRings("bonn81", {{0, 1, 0}, {15, 6, 0}, {30, 12, 0}, {45, 18, 0}, {60, 20, 0}, {75, 24, 0}});
+  return fromRings("bonn81",
+                   {{0, 1, 0}, {15, 6, 0}, {30, 12, 0}, {45, 18, 0}, {60, 20, 0}, {75, 24, 0}});
 }
 
 DirectionSet DirectionSet::ubo151() {
@@ -54,7 +55,8 @@ DirectionSet DirectionSet::fromName(const std::string& n) {
   char x = 0, extra = 0;
   if (std::sscanf(g.c_str(), "%d%c%d%c", &a, &x, &b, &extra) == 3 && (x == 'x' || x == 'X'))
     return grid(a, b);
-  throw Error("unknown direction set '" + n + "' (expected bonn81, ubo151 or a θ×φ grid like 16x32)");
+  throw Error("unknown direction set '" + n +
+              "' (expected bonn81, ubo151 or a θ×φ grid like 16x32)");
 }
 
 void DirectionSet::finish(bool gridCells) {

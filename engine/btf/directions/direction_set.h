@@ -17,10 +17,10 @@ struct Direction {
 };
 
 struct DirectionRing {
-  double theta = 0;        // radians
-  int count = 1;           // azimuths
-  double phiOffset = 0;    // radians
-  int first = 0;           // index of its first direction in the set
+  double theta = 0;      // radians
+  int count = 1;         // azimuths
+  double phiOffset = 0;  // radians
+  int first = 0;         // index of its first direction in the set
 };
 
 /// A weighted direction for interpolation.

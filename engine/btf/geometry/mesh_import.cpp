@@ -1,12 +1,12 @@
 // Mesh files through OpenMesh, and subdivision surfaces through OpenSubdiv (Far, CPU).
-#include <OpenMesh/Core/IO/MeshIO.hh>
-#include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
-#include <OpenMesh/Core/System/omstream.hh>
 #include <btf/core/error.h>
 #include <btf/geometry/builders.h>
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
 
+#include <OpenMesh/Core/IO/MeshIO.hh>
+#include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/System/omstream.hh>
 #include <filesystem>
 #include <mutex>
 #include <sstream>
@@ -46,8 +46,9 @@ PolyMesh readPoly(const std::string& path) {
   size_t nonManifold = 0;
   for (auto f : mesh.faces()) nonManifold += mesh.status(f).fixed_nonmanifold();
   if (nonManifold > 0)
-    throw Error(path + ": non-manifold mesh: " + std::to_string(nonManifold) +
-                " face(s) share an edge with more than one other face or are inconsistently oriented");
+    throw Error(
+        path + ": non-manifold mesh: " + std::to_string(nonManifold) +
+        " face(s) share an edge with more than one other face or are inconsistently oriented");
   if (mesh.n_faces() == 0) throw Error(path + ": mesh has no faces");
   return mesh;
 }

@@ -74,8 +74,10 @@ TriMesh buildTube(const Scene& s, const ParamSet& p) {
 struct GreyImage {
   int w = 0, h = 0;
   std::vector<float> px;
-  double sample(double u, double v) const {  // periodic bilinear, u, v in tile fractions
-    const double x = u * w - 0.5, y = v * h - 0.5;
+  // Periodic bilinear; pixel (i, j) is the height at (u, v) = (i / w, j / h), so a grid of the
+  // image's own resolution takes the pixel values exactly at its vertices.
+  double sample(double u, double v) const {
+    const double x = u * w, y = v * h;
     const double fx = std::floor(x), fy = std::floor(y);
     const double tx = x - fx, ty = y - fy;
     auto at = [&](int i, int j) {
@@ -129,9 +131,12 @@ TriMesh buildPart(const Scene& s, const PartDef& part) {
     const double A = p.f("amplitude"), ph = deg2rad(p.f("phase")), base = p.f("base");
     const auto per = p.i2("periods");
     const auto res = p.i2("resolution");
-    return buildHeightField(Lx, Ly, res[0], res[1], [=](double x, double y) {
-      return base + A * std::sin(kTwoPi * (per[0] * x / Lx + per[1] * y / Ly) + ph);
-    }, false);
+    return buildHeightField(
+        Lx, Ly, res[0], res[1],
+        [=](double x, double y) {
+          return base + A * std::sin(kTwoPi * (per[0] * x / Lx + per[1] * y / Ly) + ph);
+        },
+        false);
   }
   if (t == "bumps") {
     const auto cnt = p.i2("count");
@@ -139,13 +144,16 @@ TriMesh buildPart(const Scene& s, const PartDef& part) {
     const double R = p.f("radius"), H = p.f("height"), base = p.f("base");
     const bool cap = p.s("shape") == "cap";
     const double cx = Lx / cnt[0], cy = Ly / cnt[1];
-    return buildHeightField(Lx, Ly, res[0], res[1], [=](double x, double y) {
-      // Offset to the centre of the nearest bump, in units of the cell size.
-      const double u = x / cx - std::floor(x / cx) - 0.5, v = y / cy - std::floor(y / cy) - 0.5;
-      const double r2 = (u * u + v * v) / (R * R);
-      if (cap) return base + (r2 < 1 ? H * std::sqrt(1 - r2) : 0.0);
-      return base + H * std::exp(-2.0 * r2);  // σ = R/2
-    }, false);
+    return buildHeightField(
+        Lx, Ly, res[0], res[1],
+        [=](double x, double y) {
+          // Offset to the centre of the nearest bump, in units of the cell size.
+          const double u = x / cx - std::floor(x / cx) - 0.5, v = y / cy - std::floor(y / cy) - 0.5;
+          const double r2 = (u * u + v * v) / (R * R);
+          if (cap) return base + (r2 < 1 ? H * std::sqrt(1 - r2) : 0.0);
+          return base + H * std::exp(-2.0 * r2);  // σ = R/2
+        },
+        false);
   }
   if (t == "vgrooves") {
     const int n = p.i("count"), sub = p.i("subdivisions");
@@ -155,7 +163,7 @@ TriMesh buildPart(const Scene& s, const PartDef& part) {
     const int across = 2 * n * sub;
     auto h = [=](double x, double y) {
       const double s = (alongY ? x : y) / L * n;
-      const double f = s - std::floor(s);            // position in one groove, [0, 1)
+      const double f = s - std::floor(s);             // position in one groove, [0, 1)
       return base - d * (1 - 2 * std::abs(f - 0.5));  // ridge at f = 0, bottom at f = 1/2
     };
     return alongY ? buildHeightField(Lx, Ly, across, 1, h, true)
@@ -166,13 +174,16 @@ TriMesh buildPart(const Scene& s, const PartDef& part) {
     const int f0 = p.i("frequency"), oct = p.i("octaves");
     const uint64_t seed = uint64_t(p.i("seed"));
     const auto res = p.i2("resolution");
-    return buildHeightField(Lx, Ly, res[0], res[1], [=](double x, double y) {
-      double sum = 0, amp = 1;
-      int f = f0;
-      for (int o = 0; o < oct; ++o, f *= 2, amp *= gain)
-        sum += amp * gradientNoise(x / Lx * f, y / Ly * f, f, seed + uint64_t(o));
-      return base + A * sum;
-    }, false);
+    return buildHeightField(
+        Lx, Ly, res[0], res[1],
+        [=](double x, double y) {
+          double sum = 0, amp = 1;
+          int f = f0;
+          for (int o = 0; o < oct; ++o, f *= 2, amp *= gain)
+            sum += amp * gradientNoise(x / Lx * f, y / Ly * f, f, seed + uint64_t(o));
+          return base + A * sum;
+        },
+        false);
   }
   if (t == "image") {
     const std::string path = resolvePath(s, p.s("path")).string();
@@ -181,9 +192,10 @@ TriMesh buildPart(const Scene& s, const PartDef& part) {
     if (res[0] == 0) res[0] = g.w;
     if (res[1] == 0) res[1] = g.h;
     const double H = p.f("height"), base = p.f("base");
-    return buildHeightField(Lx, Ly, res[0], res[1], [g, H, base, Lx, Ly](double x, double y) {
-      return base + H * g.sample(x / Lx, y / Ly);
-    }, false);
+    return buildHeightField(
+        Lx, Ly, res[0], res[1],
+        [g, H, base, Lx, Ly](double x, double y) { return base + H * g.sample(x / Lx, y / Ly); },
+        false);
   }
   if (t == "sphere") return buildSphere(p.v3("center"), float(p.f("radius")), p.i("segments"));
   if (t == "box") return buildBox(p.v3("center"), p.v3("size"));

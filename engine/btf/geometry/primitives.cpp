@@ -69,8 +69,10 @@ void addDisk(TriMesh& m, Vec3 centre, float r, int seg, bool up) {
   }
   for (int j = 0; j < seg; ++j) {
     uint32_t a = k + 1 + j, b = k + 1 + (j + 1) % seg;
-    if (up) m.tri.push_back({k, a, b});
-    else m.tri.push_back({k, b, a});
+    if (up)
+      m.tri.push_back({k, a, b});
+    else
+      m.tri.push_back({k, b, a});
   }
 }
 }  // namespace

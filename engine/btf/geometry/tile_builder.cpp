@@ -12,7 +12,8 @@ TileGeometry buildTileGeometry(const Scene& scene) {
   g.zmax = -1e30f;
   for (size_t pi = 0; pi < scene.parts.size(); ++pi) {
     const PartDef& part = scene.parts[pi];
-    const std::string where = scene.source + ": parts[" + std::to_string(pi) + "] ('" + part.name + "')";
+    const std::string where =
+        scene.source + ": parts[" + std::to_string(pi) + "] ('" + part.name + "')";
     TriMesh m;
     try {
       m = buildPart(scene, part);

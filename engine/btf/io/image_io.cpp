@@ -52,7 +52,8 @@ std::vector<float> readRgbImage(const std::string& path, int* w, int* h) {
   *h = spec.height;
   std::vector<float> rgb(size_t(*w) * *h * 3);
   for (size_t p = 0; p < size_t(*w) * *h; ++p)
-    for (int c = 0; c < 3; ++c) rgb[p * 3 + c] = all[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
+    for (int c = 0; c < 3; ++c)
+      rgb[p * 3 + c] = all[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
   return rgb;
 }
 

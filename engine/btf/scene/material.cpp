@@ -110,7 +110,8 @@ float fresnelConductor(float cosI, float eta, float k) {
 
 Rgb fresnel(const Material& m, float cosD) {
   switch (m.fresnel) {
-    case FresnelMode::None: return Rgb(1);
+    case FresnelMode::None:
+      return Rgb(1);
     case FresnelMode::Schlick: {
       const float x = 1 - std::clamp(cosD, 0.0f, 1.0f);
       const float x5 = (x * x) * (x * x) * x;
@@ -119,7 +120,8 @@ Rgb fresnel(const Material& m, float cosD) {
     case FresnelMode::Conductor:
       return {fresnelConductor(cosD, m.eta.x, m.k.x), fresnelConductor(cosD, m.eta.y, m.k.y),
               fresnelConductor(cosD, m.eta.z, m.k.z)};
-    case FresnelMode::Dielectric: return Rgb(fresnelDielectric(cosD, m.ior));
+    case FresnelMode::Dielectric:
+      return Rgb(fresnelDielectric(cosD, m.ior));
   }
   return Rgb(1);
 }
@@ -127,7 +129,8 @@ Rgb fresnel(const Material& m, float cosD) {
 Rgb evalBrdf(const Material& m, const Vec3& wi, const Vec3& wo) {
   if (wi.z <= 0 || wo.z <= 0) return Rgb(0);
   switch (m.type) {
-    case BrdfType::Lambert: return m.kdOverPi;
+    case BrdfType::Lambert:
+      return m.kdOverPi;
     case BrdfType::BlinnPhong: {
       Vec3 h = wi + wo;
       const float l = glm::dot(h, h);
@@ -152,7 +155,8 @@ Rgb evalBrdf(const Material& m, const Vec3& wi, const Vec3& wo) {
       const float l = glm::dot(h, h);
       if (l <= 1e-20f || h.z <= 0) return m.kdOverPi;
       const float hz2 = h.z * h.z;
-      const float e = -((h.x * h.x) / (m.alphaX * m.alphaX) + (h.y * h.y) / (m.alphaY * m.alphaY)) / hz2;
+      const float e =
+          -((h.x * h.x) / (m.alphaX * m.alphaX) + (h.y * h.y) / (m.alphaY * m.alphaY)) / hz2;
       const float spec = std::exp(e) / (4.0f * kPiF * m.alphaX * m.alphaY *
                                         std::sqrt(std::max(wi.z * wo.z, 1e-12f)));
       return m.kdOverPi + m.ks * spec;

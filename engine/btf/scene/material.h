@@ -19,8 +19,8 @@ struct Material {
   FresnelMode fresnel = FresnelMode::None;
   Rgb kdOverPi{0};  // diffuse albedo / π
   Rgb ks{0};
-  float exponent = 0, phongNorm = 0;  // Blinn-Phong
-  float alpha = 0.3f;                 // microfacet roughness
+  float exponent = 0, phongNorm = 0;   // Blinn-Phong
+  float alpha = 0.3f;                  // microfacet roughness
   float alphaX = 0.1f, alphaY = 0.1f;  // Ward
   Rgb f0{0.04f}, eta{1}, k{0};
   float ior = 1.5f;

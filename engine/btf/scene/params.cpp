@@ -5,16 +5,26 @@ namespace btf {
 
 const char* paramTypeName(ParamType t) {
   switch (t) {
-    case ParamType::Float: return "number";
-    case ParamType::Int: return "integer";
-    case ParamType::Bool: return "boolean";
-    case ParamType::Rgb: return "RGB triple";
-    case ParamType::Vec2: return "array of 2 numbers";
-    case ParamType::Vec3: return "array of 3 numbers";
-    case ParamType::Int2: return "array of 2 integers";
-    case ParamType::String: return "string";
-    case ParamType::Enum: return "string";
-    case ParamType::Path: return "path string";
+    case ParamType::Float:
+      return "number";
+    case ParamType::Int:
+      return "integer";
+    case ParamType::Bool:
+      return "boolean";
+    case ParamType::Rgb:
+      return "RGB triple";
+    case ParamType::Vec2:
+      return "array of 2 numbers";
+    case ParamType::Vec3:
+      return "array of 3 numbers";
+    case ParamType::Int2:
+      return "array of 2 integers";
+    case ParamType::String:
+      return "string";
+    case ParamType::Enum:
+      return "string";
+    case ParamType::Path:
+      return "path string";
   }
   return "?";
 }
@@ -23,12 +33,16 @@ int paramArity(ParamType t) {
   switch (t) {
     case ParamType::Float:
     case ParamType::Int:
-    case ParamType::Bool: return 1;
+    case ParamType::Bool:
+      return 1;
     case ParamType::Vec2:
-    case ParamType::Int2: return 2;
+    case ParamType::Int2:
+      return 2;
     case ParamType::Rgb:
-    case ParamType::Vec3: return 3;
-    default: return 0;
+    case ParamType::Vec3:
+      return 3;
+    default:
+      return 0;
   }
 }
 
@@ -124,14 +138,18 @@ ParamDecl hfRes(int def) {
 
 const std::vector<TypeDecl>& materialTypes() {
   static const std::vector<TypeDecl> types = {
-      {"material", "lambert", "Ideal diffuse reflector: f = albedo / π.",
+      {"material",
+       "lambert",
+       "Ideal diffuse reflector: f = albedo / π.",
        {rgb("albedo", {0.8f, 0.8f, 0.8f}, 0, 1, "diffuse albedo ρ per channel")}},
-      {"material", "blinn_phong",
+      {"material",
+       "blinn_phong",
        "Energy-normalised Blinn-Phong: f = kd/π + ks·(n+8)/(8π)·cos^n θh.",
        {rgb("diffuse", {0.5f, 0.5f, 0.5f}, 0, 1, "diffuse albedo kd"),
         rgb("specular", {0.3f, 0.3f, 0.3f}, 0, 1, "specular weight ks"),
         fl("exponent", 50, 0, 1e5, "Phong exponent n of the half-vector lobe")}},
-      {"material", "cook_torrance",
+      {"material",
+       "cook_torrance",
        "Torrance-Sparrow / Cook-Torrance microfacet BRDF: f = kd/π + ks·D·G·F / (4 cosθi cosθo), "
        "D Beckmann or GGX, G the separable Smith masking-shadowing of D.",
        {rgb("diffuse", {0, 0, 0}, 0, 1, "diffuse albedo kd"),
@@ -139,12 +157,14 @@ const std::vector<TypeDecl>& materialTypes() {
         fl("roughness", 0.3, 0.001, 1, "microfacet slope parameter α (Beckmann rms slope / GGX α)"),
         en("distribution", "ggx", {"beckmann", "ggx"}, "normal distribution D"),
         en("fresnel", "schlick", {"none", "schlick", "conductor", "dielectric"},
-           "Fresnel term: none (F = 1), Schlick from f0, conductor from (eta, k), dielectric from ior"),
+           "Fresnel term: none (F = 1), Schlick from f0, conductor from (eta, k), dielectric from "
+           "ior"),
         rgb("f0", {0.04f, 0.04f, 0.04f}, 0, 1, "normal-incidence reflectance for Schlick"),
         rgb("eta", {0.2f, 0.92f, 1.1f}, 0.01, 100, "conductor refractive index η (default gold)"),
         rgb("k", {3.9f, 2.45f, 2.14f}, 0, 100, "conductor extinction k (default gold)"),
         fl("ior", 1.5, 1.0, 10, "dielectric index of refraction")}},
-      {"material", "ward",
+      {"material",
+       "ward",
        "Ward anisotropic BRDF (1992): f = ρd/π + ρs·exp(−tan²θh (cos²φh/αx² + sin²φh/αy²)) / "
        "(4π αx αy √(cosθi cosθo)); αx along the surface tangent (the projection of +x).",
        {rgb("diffuse", {0.3f, 0.3f, 0.3f}, 0, 1, "diffuse albedo ρd"),
@@ -157,59 +177,84 @@ const std::vector<TypeDecl>& materialTypes() {
 
 const std::vector<TypeDecl>& partTypes() {
   static const std::vector<TypeDecl> types = {
-      {"part", "plane", "A flat sheet covering the whole tile at height z.",
+      {"part",
+       "plane",
+       "A flat sheet covering the whole tile at height z.",
        {fl("height", 0, -kInf, kInf, "z of the sheet")}},
-      {"part", "sine", "Height field z = base + amplitude·sin(2π(px·x/Lx + py·y/Ly) + phase).",
+      {"part",
+       "sine",
+       "Height field z = base + amplitude·sin(2π(px·x/Lx + py·y/Ly) + phase).",
        {fl("amplitude", 0.1, 0, kInf, "half peak-to-peak height"),
-        i2("periods", {1, 0}, 0, 1024, "whole periods across the tile in x and y (integers keep it periodic)"),
+        i2("periods", {1, 0}, 0, 1024,
+           "whole periods across the tile in x and y (integers keep it periodic)"),
         fl("phase", 0, -360, 360, "phase in degrees"), fl("base", 0, -kInf, kInf, "mean height"),
         hfRes(64)}},
-      {"part", "bumps", "Height field of a regular grid of bumps (spherical caps or Gaussians).",
+      {"part",
+       "bumps",
+       "Height field of a regular grid of bumps (spherical caps or Gaussians).",
        {i2("count", {4, 4}, 1, 1024, "bumps across the tile in x and y"),
         fl("radius", 0.4, 0, 0.5, "bump radius as a fraction of the cell size", true),
         fl("height", 0.1, 0, kInf, "bump height"),
         en("shape", "cap", {"cap", "gaussian"}, "profile of a bump"),
         fl("base", 0, -kInf, kInf, "height between bumps"), hfRes(96)}},
-      {"part", "vgrooves", "Height field of parallel symmetric V-grooves.",
+      {"part",
+       "vgrooves",
+       "Height field of parallel symmetric V-grooves.",
        {in("count", 4, 1, 1024, "grooves across the tile"),
         fl("depth", 0.2, 0, kInf, "groove depth"),
         en("axis", "y", {"x", "y"}, "grooves run along this axis"),
         fl("base", 0, -kInf, kInf, "height of the ridges"),
         in("subdivisions", 4, 1, 256, "grid cells per groove facet (facets stay exactly planar)")}},
-      {"part", "noise", "Periodic fractional Brownian motion height field (gradient noise octaves).",
+      {"part",
+       "noise",
+       "Periodic fractional Brownian motion height field (gradient noise octaves).",
        {fl("amplitude", 0.1, 0, kInf, "height scale"),
         in("frequency", 4, 1, 256, "lattice cells across the tile for the first octave"),
         in("octaves", 4, 1, 12, "number of octaves (each doubles the frequency)"),
         fl("gain", 0.5, 0, 1, "amplitude factor per octave"),
         in("seed", 1, 0, 1 << 30, "noise seed"), fl("base", 0, -kInf, kInf, "mean height"),
         hfRes(96)}},
-      {"part", "image", "Height field read from a grey image (OpenImageIO): z = base + height·value.",
+      {"part",
+       "image",
+       "Height field read from a grey image (OpenImageIO): z = base + height·value.",
        {pa("path", "image file, relative to the scene file"),
         fl("height", 0.1, -kInf, kInf, "height of value 1"),
         fl("base", 0, -kInf, kInf, "height of value 0"),
         i2("resolution", {0, 0}, 0, 4096, "grid vertices per tile; 0 = the image's own size")}},
-      {"part", "sphere", "A sphere (UV tessellation).",
+      {"part",
+       "sphere",
+       "A sphere (UV tessellation).",
        {v3("center", {0.5f, 0.5f, 0.f}, -kInf, kInf, "centre"),
         fl("radius", 0.25, 0, kInf, "radius", true),
         in("segments", 32, 4, 1024, "segments around the equator")}},
-      {"part", "box", "An axis-aligned box before its transform.",
+      {"part",
+       "box",
+       "An axis-aligned box before its transform.",
        {v3("center", {0.5f, 0.5f, 0.1f}, -kInf, kInf, "centre"),
         v3("size", {0.5f, 0.5f, 0.2f}, 0, kInf, "edge lengths", true)}},
-      {"part", "cylinder", "A z-aligned cylinder standing on its base centre (with caps).",
+      {"part",
+       "cylinder",
+       "A z-aligned cylinder standing on its base centre (with caps).",
        {v3("center", {0.5f, 0.5f, 0.f}, -kInf, kInf, "centre of the bottom cap"),
         fl("radius", 0.2, 0, kInf, "radius", true), fl("height", 0.3, 0, kInf, "height", true),
         in("segments", 32, 3, 1024, "segments around"), bo("caps", true, "close both ends")}},
-      {"part", "cone", "A z-aligned cone standing on its base centre (with a base cap).",
+      {"part",
+       "cone",
+       "A z-aligned cone standing on its base centre (with a base cap).",
        {v3("center", {0.5f, 0.5f, 0.f}, -kInf, kInf, "centre of the base"),
         fl("radius", 0.2, 0, kInf, "base radius", true), fl("height", 0.3, 0, kInf, "height", true),
         in("segments", 32, 3, 1024, "segments around")}},
-      {"part", "torus", "A torus around the z axis.",
+      {"part",
+       "torus",
+       "A torus around the z axis.",
        {v3("center", {0.5f, 0.5f, 0.f}, -kInf, kInf, "centre"),
         fl("major_radius", 0.3, 0, kInf, "radius of the ring", true),
         fl("minor_radius", 0.08, 0, kInf, "radius of the tube", true),
         i2("segments", {48, 16}, 3, 1024, "segments around the ring and around the tube")}},
-      {"part", "tube",
-       "A periodic swept tube (a thread of a weave): a circle of `radius` swept along a centre line "
+      {"part",
+       "tube",
+       "A periodic swept tube (a thread of a weave): a circle of `radius` swept along a centre "
+       "line "
        "that runs across the whole tile along `axis` and undulates in z as "
        "z = height + amplitude·sin(2π·waves·s + phase).",
        {en("axis", "x", {"x", "y"}, "direction the thread runs"),
@@ -220,10 +265,13 @@ const std::vector<TypeDecl>& partTypes() {
         in("waves", 1, 0, 256, "undulation periods across the tile"),
         fl("phase", 0, -360, 360, "undulation phase in degrees"),
         i2("segments", {64, 12}, 3, 4096, "segments along the tile and around the thread")}},
-      {"part", "mesh", "A triangle or polygon mesh read with OpenMesh (OBJ, PLY, OFF).",
+      {"part",
+       "mesh",
+       "A triangle or polygon mesh read with OpenMesh (OBJ, PLY, OFF).",
        {pa("path", "mesh file, relative to the scene file"),
         bo("smooth", true, "smooth (vertex) normals; false gives flat facets")}},
-      {"part", "subdiv",
+      {"part",
+       "subdiv",
        "A subdivision surface: a control cage (OBJ/PLY/OFF) refined uniformly by OpenSubdiv.",
        {pa("path", "cage file, relative to the scene file"),
         in("levels", 3, 1, 6, "uniform refinement levels"),
@@ -234,7 +282,8 @@ const std::vector<TypeDecl>& partTypes() {
 
 const TypeDecl& transformDecl() {
   static const TypeDecl d{
-      "transform", "transform",
+      "transform",
+      "transform",
       "Applied to a part's geometry as scale, then rotate (x, then y, then z), then translate.",
       {v3("translate", {0, 0, 0}, -kInf, kInf, "translation"),
        v3("rotate", {0, 0, 0}, -360, 360, "rotation in degrees about x, y, z"),
@@ -243,31 +292,36 @@ const TypeDecl& transformDecl() {
 }
 
 const TypeDecl& arrayDecl() {
-  static const TypeDecl d{"array", "array",
-                          "Repeats a part on a regular grid inside the tile (after its transform).",
-                          {i2("count", {1, 1}, 1, 1024, "copies along x and y"),
-                           v2("spacing", {0, 0}, 0, kInf,
-                              "distance between copies; 0 = tile size / count"),
-                           fl("row_shift", 0, -1, 1,
-                              "x shift of every odd row as a fraction of the x spacing (bricks)")}};
+  static const TypeDecl d{
+      "array",
+      "array",
+      "Repeats a part on a regular grid inside the tile (after its transform).",
+      {i2("count", {1, 1}, 1, 1024, "copies along x and y"),
+       v2("spacing", {0, 0}, 0, kInf, "distance between copies; 0 = tile size / count"),
+       fl("row_shift", 0, -1, 1,
+          "x shift of every odd row as a fraction of the x spacing (bricks)")}};
   return d;
 }
 
 const TypeDecl& simulationDecl() {
   static const TypeDecl d{
-      "simulation", "simulation",
+      "simulation",
+      "simulation",
       "Default simulation settings of the scene; the command line overrides each.",
       {i2("texels", {32, 32}, 1, 16384, "texels Nu × Nv over the tile"),
        en("directions", "bonn81", {"bonn81", "ubo151", "grid"}, "direction set"),
        i2("grid", {16, 32}, 1, 1024, "θ × φ counts when directions = grid"),
        in("spp", 1, 1, 64, "supersampling: K×K jittered rays per texel (1 = texel centre)"),
-       en("shadows", "map", {"map", "rays"}, "self-shadowing: shadow-map test or exact shadow rays"),
+       en("shadows", "map", {"map", "rays"},
+          "self-shadowing: shadow-map test or exact shadow rays"),
        in("seed", 1, 0, 1 << 30, "seed of the jitter")}};
   return d;
 }
 
 const TypeDecl& tileDecl() {
-  static const TypeDecl d{"tile", "tile", "The periodic tile of the reference plane z = 0.",
+  static const TypeDecl d{"tile",
+                          "tile",
+                          "The periodic tile of the reference plane z = 0.",
                           {v2("size", {1, 1}, 0, kInf, "periods Lx, Ly", true)}};
   return d;
 }

@@ -34,13 +34,16 @@ std::string fmtNum(double v) {
 
 double readNumber(const Ctx& c, const json& j, const std::string& path, const ParamDecl& d,
                   bool integer) {
-  if (!j.is_number()) c.fail(path, std::string("expected ") + (integer ? "an integer" : "a number") + ", got " + j.type_name());
+  if (!j.is_number())
+    c.fail(path, std::string("expected ") + (integer ? "an integer" : "a number") + ", got " +
+                     j.type_name());
   const double v = j.get<double>();
   if (!std::isfinite(v)) c.fail(path, "must be a finite number");
   if (integer && (j.is_number_float() && v != std::floor(v)))
     c.fail(path, "expected an integer, got " + fmtNum(v));
   if (d.minExclusive ? !(v > d.min) : !(v >= d.min))
-    c.fail(path, "must be " + std::string(d.minExclusive ? "> " : ">= ") + fmtNum(d.min) + " (got " + fmtNum(v) + ")");
+    c.fail(path, "must be " + std::string(d.minExclusive ? "> " : ">= ") + fmtNum(d.min) +
+                     " (got " + fmtNum(v) + ")");
   if (!(v <= d.max)) c.fail(path, "must be <= " + fmtNum(d.max) + " (got " + fmtNum(v) + ")");
   return v;
 }
@@ -49,7 +52,8 @@ ParamValue readValue(const Ctx& c, const json& j, const std::string& path, const
   ParamValue v;
   switch (d.type) {
     case ParamType::Bool:
-      if (!j.is_boolean()) c.fail(path, std::string("expected true or false, got ") + j.type_name());
+      if (!j.is_boolean())
+        c.fail(path, std::string("expected true or false, got ") + j.type_name());
       v.num = {j.get<bool>() ? 1.0 : 0.0};
       return v;
     case ParamType::Float:
@@ -68,7 +72,8 @@ ParamValue readValue(const Ctx& c, const json& j, const std::string& path, const
       }
       if (!j.is_array() || int(j.size()) != n)
         c.fail(path, std::string("expected an ") + paramTypeName(d.type) + ", got " +
-                         (j.is_array() ? "an array of " + std::to_string(j.size()) : std::string(j.type_name())));
+                         (j.is_array() ? "an array of " + std::to_string(j.size())
+                                       : std::string(j.type_name())));
       for (int k = 0; k < n; ++k)
         v.num.push_back(readNumber(c, j[k], path + "[" + std::to_string(k) + "]", d,
                                    d.type == ParamType::Int2));
@@ -111,8 +116,8 @@ ParamSet readParams(const Ctx& c, const json& obj, const std::string& path, cons
     if (!d) {
       std::string known;
       for (const auto& p : decl.params) known += (known.empty() ? "" : ", ") + p.name;
-      c.fail(kp, "unknown key for " + decl.category + " '" + decl.name + "' (known keys: " +
-                     (known.empty() ? std::string("none") : known) + ")");
+      c.fail(kp, "unknown key for " + decl.category + " '" + decl.name +
+                     "' (known keys: " + (known.empty() ? std::string("none") : known) + ")");
     }
     s.set(d->name, readValue(c, it.value(), kp, *d));
   }
@@ -124,10 +129,14 @@ ParamSet readParams(const Ctx& c, const json& obj, const std::string& path, cons
 
 json valueToJson(const ParamDecl& d, const ParamValue& v) {
   switch (d.type) {
-    case ParamType::Bool: return v.num.at(0) != 0;
-    case ParamType::Int: return int64_t(v.num.at(0));
-    case ParamType::Float: return v.num.at(0);
-    case ParamType::Int2: return json::array({int64_t(v.num.at(0)), int64_t(v.num.at(1))});
+    case ParamType::Bool:
+      return v.num.at(0) != 0;
+    case ParamType::Int:
+      return int64_t(v.num.at(0));
+    case ParamType::Float:
+      return v.num.at(0);
+    case ParamType::Int2:
+      return json::array({int64_t(v.num.at(0)), int64_t(v.num.at(1))});
     case ParamType::Rgb:
     case ParamType::Vec2:
     case ParamType::Vec3: {
@@ -135,7 +144,8 @@ json valueToJson(const ParamDecl& d, const ParamValue& v) {
       for (double x : v.num) a.push_back(x);
       return a;
     }
-    default: return v.str;
+    default:
+      return v.str;
   }
 }
 
@@ -172,7 +182,8 @@ Scene parseScene(const std::string& text, const std::string& source,
     bool ok = false;
     for (const char* k : known) ok |= it.key() == k;
     if (!ok)
-      c.fail(it.key(), "unknown top-level key (known: btfscene, name, tile, materials, parts, simulation)");
+      c.fail(it.key(),
+             "unknown top-level key (known: btfscene, name, tile, materials, parts, simulation)");
   }
   if (!root.contains("btfscene")) c.fail("", "missing 'btfscene' (the format version, 1)");
   if (!root["btfscene"].is_number_integer() || root["btfscene"].get<int>() != kSceneVersion)
@@ -185,11 +196,13 @@ Scene parseScene(const std::string& text, const std::string& source,
   ParamSet tile = readParams(c, root.value("tile", json::object()), "tile", tileDecl());
   s.Lx = tile.v2("size").x;
   s.Ly = tile.v2("size").y;
-  s.simulation = readParams(c, root.value("simulation", json::object()), "simulation", simulationDecl());
+  s.simulation =
+      readParams(c, root.value("simulation", json::object()), "simulation", simulationDecl());
 
   if (!root.contains("materials")) c.fail("", "missing 'materials' (an object of named materials)");
   const json& mats = root["materials"];
-  if (!mats.is_object()) c.fail("materials", std::string("expected an object, got ") + mats.type_name());
+  if (!mats.is_object())
+    c.fail("materials", std::string("expected an object, got ") + mats.type_name());
   for (auto it = mats.begin(); it != mats.end(); ++it) {
     const std::string path = "materials." + it.key();
     const json& m = it.value();
@@ -198,14 +211,17 @@ Scene parseScene(const std::string& text, const std::string& source,
       c.fail(path, "missing 'type' (one of: " + typeNames(materialTypes()) + ")");
     const std::string type = m["type"].get<std::string>();
     const TypeDecl* d = findType(materialTypes(), type);
-    if (!d) c.fail(path + ".type", "unknown material type '" + type + "' (one of: " + typeNames(materialTypes()) + ")");
+    if (!d)
+      c.fail(path + ".type",
+             "unknown material type '" + type + "' (one of: " + typeNames(materialTypes()) + ")");
     s.materials.push_back({it.key(), type, readParams(c, m, path, *d, {"type"})});
   }
   if (s.materials.size() > 65535) c.fail("materials", "at most 65535 materials");
 
   if (!root.contains("parts")) c.fail("", "missing 'parts' (an array of parts)");
   const json& parts = root["parts"];
-  if (!parts.is_array()) c.fail("parts", std::string("expected an array, got ") + parts.type_name());
+  if (!parts.is_array())
+    c.fail("parts", std::string("expected an array, got ") + parts.type_name());
   if (parts.empty()) c.fail("parts", "the scene is empty: add at least one part");
   for (size_t i = 0; i < parts.size(); ++i) {
     const std::string path = "parts[" + std::to_string(i) + "]";
@@ -215,7 +231,9 @@ Scene parseScene(const std::string& text, const std::string& source,
       c.fail(path, "missing 'type' (one of: " + typeNames(partTypes()) + ")");
     const std::string type = p["type"].get<std::string>();
     const TypeDecl* d = findType(partTypes(), type);
-    if (!d) c.fail(path + ".type", "unknown part type '" + type + "' (one of: " + typeNames(partTypes()) + ")");
+    if (!d)
+      c.fail(path + ".type",
+             "unknown part type '" + type + "' (one of: " + typeNames(partTypes()) + ")");
     PartDef part;
     part.type = type;
     part.name = p.contains("name") && p["name"].is_string() ? p["name"].get<std::string>()
@@ -226,7 +244,8 @@ Scene parseScene(const std::string& text, const std::string& source,
     if (s.materialIndex(part.material) < 0)
       c.fail(path + ".material", "no material named '" + part.material + "'");
     part.params = readParams(c, p, path, *d, {"type", "name", "material", "transform", "array"});
-    part.transform = readParams(c, p.value("transform", json::object()), path + ".transform", transformDecl());
+    part.transform =
+        readParams(c, p.value("transform", json::object()), path + ".transform", transformDecl());
     part.array = readParams(c, p.value("array", json::object()), path + ".array", arrayDecl());
     s.parts.push_back(std::move(part));
   }
@@ -294,9 +313,15 @@ json schemaOfParam(const ParamDecl& d) {
     return n;
   };
   switch (d.type) {
-    case ParamType::Bool: s["type"] = "boolean"; break;
-    case ParamType::Float: s.update(numSchema(false)); break;
-    case ParamType::Int: s.update(numSchema(true)); break;
+    case ParamType::Bool:
+      s["type"] = "boolean";
+      break;
+    case ParamType::Float:
+      s.update(numSchema(false));
+      break;
+    case ParamType::Int:
+      s.update(numSchema(true));
+      break;
     case ParamType::Rgb:
     case ParamType::Vec2:
     case ParamType::Vec3:
@@ -316,7 +341,9 @@ json schemaOfParam(const ParamDecl& d) {
       s["type"] = "string";
       s["enum"] = d.choices;
       break;
-    default: s["type"] = "string"; s["minLength"] = 1;
+    default:
+      s["type"] = "string";
+      s["minLength"] = 1;
   }
   if (d.type != ParamType::Path) {
     json def = valueToJson(d, ParamValue{d.def, d.defStr});
@@ -397,21 +424,25 @@ std::string sceneParamsMarkdown() {
       if (p.type == ParamType::Enum) {
         for (const auto& c : p.choices) range += (range.empty() ? "" : ", ") + ("`" + c + "`");
       } else if (paramArity(p.type) > 0 && p.type != ParamType::Bool) {
-        range = (std::isfinite(p.min) ? (p.minExclusive ? "> " : "≥ ") + fmt(p.min) : std::string()) +
-                (std::isfinite(p.min) && std::isfinite(p.max) ? ", " : "") +
-                (std::isfinite(p.max) ? "≤ " + fmt(p.max) : std::string());
+        range =
+            (std::isfinite(p.min) ? (p.minExclusive ? "> " : "≥ ") + fmt(p.min) : std::string()) +
+            (std::isfinite(p.min) && std::isfinite(p.max) ? ", " : "") +
+            (std::isfinite(p.max) ? "≤ " + fmt(p.max) : std::string());
       }
       std::string def;
-      if (p.required) def = "required";
-      else if (paramArity(p.type) == 0) def = "`" + p.defStr + "`";
-      else if (p.type == ParamType::Bool) def = p.def[0] != 0 ? "`true`" : "`false`";
+      if (p.required)
+        def = "required";
+      else if (paramArity(p.type) == 0)
+        def = "`" + p.defStr + "`";
+      else if (p.type == ParamType::Bool)
+        def = p.def[0] != 0 ? "`true`" : "`false`";
       else {
         for (double d : p.def) def += (def.empty() ? "" : ", ") + fmt(d);
         if (p.def.size() > 1) def = "[" + def + "]";
         def = "`" + def + "`";
       }
-      o << "| `" << p.name << "` | " << paramTypeName(p.type) << " | " << range << " | " << def << " | " << p.doc
-        << " |\n";
+      o << "| `" << p.name << "` | " << paramTypeName(p.type) << " | " << range << " | " << def
+        << " | " << p.doc << " |\n";
     }
     o << "\n";
   };
@@ -424,7 +455,8 @@ std::string sceneParamsMarkdown() {
     o << "#### `" << t.name << "`\n\n";
     table(t);
   }
-  o << "### Parts\n\nEvery part also takes `name` (string), `material` (required: a key of `materials`), "
+  o << "### Parts\n\nEvery part also takes `name` (string), `material` (required: a key of "
+       "`materials`), "
        "`transform` and `array`.\n\n";
   for (const auto& t : partTypes()) {
     o << "#### `" << t.name << "`\n\n";

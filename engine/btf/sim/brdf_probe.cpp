@@ -23,40 +23,44 @@ std::vector<Rgb> averagedBrdf(const PeriodicTracer& tracer, const std::vector<Ma
   const TileGeometry& g = tracer.geometry();
   std::vector<Rgb> out(pairs.size(), Rgb(0));
   std::vector<Rgb> partials(pairs.size() * size_t(n), Rgb(0));
-  parallelForChunks(int64_t(pairs.size()) * n, 1, [&](int64_t b, int64_t e) {
-    for (int64_t k = b; k < e; ++k) {
-      const size_t pi = size_t(k / n);
-      const int row = int(k % n);
-      const DirectionPair& pr = pairs[pi];
-      const Vec3 wi(pr.wi), wo(pr.wo);
-      const float invCos = 1.0f / float(std::max(pr.wi.z, 1e-7));
-      Rgb sum(0);
-      for (int a = 0; a < n; ++a) {
-        const uint64_t h = hashKeys(seed, uint64_t(a), uint64_t(row), 0xb3d);
-        const DVec3 p0((a + uniformFloat(h)) * g.Lx / n, (row + uniformFloat(mix64(h))) * g.Ly / n, 0);
-        float depth;
-        const RayHit hit = traceSampleRay(tracer, p0, pr.wo, &depth);
-        if (!hit.hit()) continue;
-        Vec3 ng = g.faceNormal(hit.prim);
-        const float l = glm::length(ng);
-        if (!(l > 0)) continue;
-        ng /= l;
-        Vec3 nS = g.shadingNormal(hit.prim, hit.u, hit.v);
-        if (glm::dot(ng, wo) < 0) {
-          ng = -ng;
-          nS = -nS;
+  parallelForChunks(
+      int64_t(pairs.size()) * n, 1,
+      [&](int64_t b, int64_t e) {
+        for (int64_t k = b; k < e; ++k) {
+          const size_t pi = size_t(k / n);
+          const int row = int(k % n);
+          const DirectionPair& pr = pairs[pi];
+          const Vec3 wi(pr.wi), wo(pr.wo);
+          const float invCos = 1.0f / float(std::max(pr.wi.z, 1e-7));
+          Rgb sum(0);
+          for (int a = 0; a < n; ++a) {
+            const uint64_t h = hashKeys(seed, uint64_t(a), uint64_t(row), 0xb3d);
+            const DVec3 p0((a + uniformFloat(h)) * g.Lx / n,
+                           (row + uniformFloat(mix64(h))) * g.Ly / n, 0);
+            float depth;
+            const RayHit hit = traceSampleRay(tracer, p0, pr.wo, &depth);
+            if (!hit.hit()) continue;
+            Vec3 ng = g.faceNormal(hit.prim);
+            const float l = glm::length(ng);
+            if (!(l > 0)) continue;
+            ng /= l;
+            Vec3 nS = g.shadingNormal(hit.prim, hit.u, hit.v);
+            if (glm::dot(ng, wo) < 0) {
+              ng = -ng;
+              nS = -nS;
+            }
+            const float cosN = glm::dot(nS, wi);
+            if (cosN <= 0 || glm::dot(ng, wi) <= 0) continue;
+            const DVec3 p = p0 + double(depth) * pr.wo;
+            if (tracer.occluded(p + tracer.epsilon() * DVec3(ng), pr.wi)) continue;
+            const Frame fr = Frame::fromNormal(nS);
+            sum += evalBrdf(materials[g.triMaterial[hit.prim]], fr.toLocal(wi), fr.toLocal(wo)) *
+                   (cosN * invCos);
+          }
+          partials[size_t(k)] = sum;  // per-row partials: deterministic, no atomics
         }
-        const float cosN = glm::dot(nS, wi);
-        if (cosN <= 0 || glm::dot(ng, wi) <= 0) continue;
-        const DVec3 p = p0 + double(depth) * pr.wo;
-        if (tracer.occluded(p + tracer.epsilon() * DVec3(ng), pr.wi)) continue;
-        const Frame fr = Frame::fromNormal(nS);
-        sum += evalBrdf(materials[g.triMaterial[hit.prim]], fr.toLocal(wi), fr.toLocal(wo)) *
-               (cosN * invCos);
-      }
-      partials[size_t(k)] = sum;  // per-row partials: deterministic, no atomics
-    }
-  }, cancel);
+      },
+      cancel);
   const float inv = 1.0f / float(n) / float(n);
   for (size_t pi = 0; pi < pairs.size(); ++pi) {
     Rgb acc(0);

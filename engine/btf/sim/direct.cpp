@@ -11,7 +11,9 @@ ShadowMode parseShadowMode(const std::string& s) {
   if (s == "rays") return ShadowMode::Rays;
   throw Error("unknown shadow mode '" + s + "' (expected map or rays)");
 }
-const char* shadowModeName(ShadowMode m) { return m == ShadowMode::Map ? "map" : "rays"; }
+const char* shadowModeName(ShadowMode m) {
+  return m == ShadowMode::Map ? "map" : "rays";
+}
 
 DirectIllumination::DirectIllumination(const PeriodicTracer& tracer,
                                        const std::vector<Material>& materials,
@@ -154,7 +156,8 @@ Rgb DirectIllumination::evalTexelViewLight(int i, int j, int view, const DVec3& 
     if (m_tracer.occluded(p + m_tracer.epsilon() * DVec3(ng), light)) continue;
     const Frame frame = Frame::fromNormal(n);
     sum += evalBrdf(m_materials[m_geom.triMaterial[prim]], frame.toLocal(wl),
-                    frame.toLocal(Vec3(wv))) * (cosN * invCos);
+                    frame.toLocal(Vec3(wv))) *
+           (cosN * invCos);
   }
   return sum / float(K2);
 }

@@ -41,7 +41,7 @@ class DirectIllumination {
  private:
   struct LightInfo {
     Vec3 w;
-    float invCos;       // 1 / cos θi, for the aBRDF division
+    float invCos;          // 1 / cos θi, for the aBRDF division
     float slopeX, slopeY;  // ωx/ωz, ωy/ωz: projection onto the reference plane
   };
   const PeriodicTracer& m_tracer;

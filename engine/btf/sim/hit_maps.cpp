@@ -39,23 +39,26 @@ void HitMaps::build(const PeriodicTracer& tracer, const DirectionSet& dirs, cons
   m_v.assign(n, 0.f);
   const int su = grid.su(), sv = grid.sv();
   // One task per (direction, row of samples): rays of a row are spatially coherent.
-  parallelForChunks(int64_t(m_nDirs) * sv, 4, [&](int64_t b, int64_t e) {
-    for (int64_t k = b; k < e; ++k) {
-      const int d = int(k / sv), row = int(k % sv);
-      const DVec3 w = dirs[d].w;
-      for (int a = 0; a < su; ++a) {
-        const int64_t s = int64_t(row) * su + a;
-        float depth;
-        const RayHit h = traceSampleRay(tracer, grid.position(a, row), w, &depth);
-        const size_t i = idx(d, s);
-        m_prim[i] = h.prim;
-        m_depth[i] = depth;
-        m_u[i] = h.u;
-        m_v[i] = h.v;
-      }
-      if (progress && row == sv - 1) progress->add(1);
-    }
-  }, cancel);
+  parallelForChunks(
+      int64_t(m_nDirs) * sv, 4,
+      [&](int64_t b, int64_t e) {
+        for (int64_t k = b; k < e; ++k) {
+          const int d = int(k / sv), row = int(k % sv);
+          const DVec3 w = dirs[d].w;
+          for (int a = 0; a < su; ++a) {
+            const int64_t s = int64_t(row) * su + a;
+            float depth;
+            const RayHit h = traceSampleRay(tracer, grid.position(a, row), w, &depth);
+            const size_t i = idx(d, s);
+            m_prim[i] = h.prim;
+            m_depth[i] = depth;
+            m_u[i] = h.u;
+            m_v[i] = h.v;
+          }
+          if (progress && row == sv - 1) progress->add(1);
+        }
+      },
+      cancel);
 }
 
 std::vector<float> HitMaps::vmf(int dir) const {

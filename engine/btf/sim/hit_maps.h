@@ -56,7 +56,9 @@ class HitMaps {
   std::vector<float> vmf(int dir) const;
 
  private:
-  size_t idx(int dir, int64_t s) const { return size_t(dir) * size_t(m_grid.samples()) + size_t(s); }
+  size_t idx(int dir, int64_t s) const {
+    return size_t(dir) * size_t(m_grid.samples()) + size_t(s);
+  }
   SampleGrid m_grid;
   int m_nDirs = 0;
   std::vector<uint32_t> m_prim;

@@ -16,7 +16,9 @@ namespace btf {
 
 namespace {
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 int activeThreads() {
   return int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
 }
@@ -39,10 +41,12 @@ SimOptions optionsFromScene(const Scene& scene) {
 SimulationJob::SimulationJob(const Scene& scene, SimOptions options)
     : m_scene(scene), m_opt(std::move(options)) {
   if (m_opt.nu < 1 || m_opt.nv < 1 || m_opt.nu > 16384 || m_opt.nv > 16384)
-    throw Error("invalid texel resolution " + std::to_string(m_opt.nu) + "x" + std::to_string(m_opt.nv) +
-                ": each must be between 1 and 16384");
-  if (m_opt.spp < 1 || m_opt.spp > 64) throw Error("invalid --spp " + std::to_string(m_opt.spp) + ": must be 1..64");
-  if (!(m_opt.shadowBias >= 0) || !std::isfinite(m_opt.shadowBias)) throw Error("shadow bias must be a finite number >= 0");
+    throw Error("invalid texel resolution " + std::to_string(m_opt.nu) + "x" +
+                std::to_string(m_opt.nv) + ": each must be between 1 and 16384");
+  if (m_opt.spp < 1 || m_opt.spp > 64)
+    throw Error("invalid --spp " + std::to_string(m_opt.spp) + ": must be 1..64");
+  if (!(m_opt.shadowBias >= 0) || !std::isfinite(m_opt.shadowBias))
+    throw Error("shadow bias must be a finite number >= 0");
   enableFlushToZeroOnWorkers();
   m_dirs = DirectionSet::fromName(m_opt.directions);
   m_geom = buildTileGeometry(m_scene);
@@ -76,7 +80,9 @@ BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
   plan["effects"]["direct"] = true;
   plan["effects"]["self_shadowing"] = shadowModeName(m_opt.shadows);
   plan["effects"]["interreflection"] = false;
-  plan["note"] = "direct illumination with self-shadowing and masking; global illumination is not simulated by this build";
+  plan["note"] =
+      "direct illumination with self-shadowing and masking; global illumination is not simulated "
+      "by this build";
   i.plan = plan.dump();
   return i;
 }
@@ -91,14 +97,18 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   const uint64_t texelBytes = probe.texelBytes();
   e.hitMapBytes = uint64_t(nD) * samples * HitMaps::kBytesPerSample;
   const uint64_t vmfBytes = uint64_t(nD) * uint64_t(texels) * 8;
-  const uint64_t fixed = (64ull << 20) + e.hitMapBytes + vmfBytes + m_tracer->embreeTriangles() * 160;
+  const uint64_t fixed =
+      (64ull << 20) + e.hitMapBytes + vmfBytes + m_tracer->embreeTriangles() * 160;
   if (fixed + texelBytes > m_opt.memoryBudget) {
-    e.refusal = "memory budget " + formatBytes(double(m_opt.memoryBudget)) + " is too small: hit maps need " +
-                formatBytes(double(e.hitMapBytes)) + ", visibility map " + formatBytes(double(vmfBytes)) +
-                ", one texel's " + std::to_string(nD) + "x" + std::to_string(nD) + " matrix " +
-                formatBytes(double(texelBytes)) + " (lower --texels, --spp or the direction count, or raise --memory-budget)";
+    e.refusal = "memory budget " + formatBytes(double(m_opt.memoryBudget)) +
+                " is too small: hit maps need " + formatBytes(double(e.hitMapBytes)) +
+                ", visibility map " + formatBytes(double(vmfBytes)) + ", one texel's " +
+                std::to_string(nD) + "x" + std::to_string(nD) + " matrix " +
+                formatBytes(double(texelBytes)) +
+                " (lower --texels, --spp or the direction count, or raise --memory-budget)";
   }
-  uint64_t perChunk = std::max<uint64_t>(1, (m_opt.memoryBudget > fixed ? m_opt.memoryBudget - fixed : 0) / texelBytes);
+  uint64_t perChunk = std::max<uint64_t>(
+      1, (m_opt.memoryBudget > fixed ? m_opt.memoryBudget - fixed : 0) / texelBytes);
   perChunk = std::min<uint64_t>(perChunk, std::max<uint64_t>(1, m_opt.maxChunkBytes / texelBytes));
   perChunk = std::min<uint64_t>(perChunk, uint64_t(texels));
   e.chunkTexels = int(perChunk);
@@ -110,8 +120,9 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   if (!outPath.empty()) {
     e.freeDiskBytes = freeDiskBytes(outPath);
     if (e.refusal.empty() && e.freeDiskBytes > 0 && e.diskBytes > e.freeDiskBytes)
-      e.refusal = "not enough disk space for " + outPath + ": needs " + formatBytes(double(e.diskBytes)) +
-                  ", " + formatBytes(double(e.freeDiskBytes)) + " free";
+      e.refusal = "not enough disk space for " + outPath + ": needs " +
+                  formatBytes(double(e.diskBytes)) + ", " + formatBytes(double(e.freeDiskBytes)) +
+                  " free";
   }
 
   // Time: calibrate on this scene — hit maps and the direct kernel on a coarse 8×8 grid with the
@@ -125,11 +136,13 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     maps.build(*m_tracer, m_dirs, g);
   }
   const double perRay = since(t0) / double(maps.raysTraced());
-  DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps, {m_opt.shadows, m_opt.shadowBias});
+  DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
+                            {m_opt.shadows, m_opt.shadowBias});
   std::vector<float> buf(size_t(nD) * 3);
   const int calls = std::min(64, nD * 4);
   t0 = Clock::now();
-  for (int k = 0; k < calls; ++k) direct.evalTexelView(k % cal, (k / cal) % cal, (k * 7) % nD, buf.data());
+  for (int k = 0; k < calls; ++k)
+    direct.evalTexelView(k % cal, (k / cal) % cal, (k * 7) % nD, buf.data());
   const double perSampleView = since(t0) / calls;
   const double threads = std::max(1, e.threads);
   e.hitMapSeconds = double(nD) * double(samples) * perRay / threads;
@@ -174,7 +187,8 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     writer->writeVmf(vmf);
   }
 
-  DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps, {m_opt.shadows, m_opt.shadowBias});
+  DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
+                            {m_opt.shadows, m_opt.shadowBias});
   const char* abortEnv = std::getenv("BTF_TEST_ABORT_AFTER_CHUNKS");  // test hook: simulates a kill
   const int abortAfter = abortEnv ? std::atoi(abortEnv) : -1;
   int written = 0;
@@ -190,17 +204,20 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     }
     const size_t stride = size_t(nD) * size_t(nD) * 3;
     chunk.assign(size_t(t1 - t0) * stride, 0.f);
-    parallelForChunks((t1 - t0) * nD, 8, [&](int64_t b, int64_t e) {
-      uint64_t local = 0;
-      for (int64_t k = b; k < e; ++k) {
-        const int64_t t = t0 + k / nD;
-        const int view = int(k % nD);
-        local += uint64_t(direct.evalTexelView(int(t % m_opt.nu), int(t / m_opt.nu), view,
-                                               &chunk[size_t(k / nD) * stride + size_t(view) * nD * 3]));
-        if (view == nD - 1) pr.add(1);
-      }
-      evals += local;
-    }, cancel);
+    parallelForChunks((t1 - t0) * nD, 8,
+                      [&](int64_t b, int64_t e) {
+                        uint64_t local = 0;
+                        for (int64_t k = b; k < e; ++k) {
+                          const int64_t t = t0 + k / nD;
+                          const int view = int(k % nD);
+                          local += uint64_t(direct.evalTexelView(
+                              int(t % m_opt.nu), int(t / m_opt.nu), view,
+                              &chunk[size_t(k / nD) * stride + size_t(view) * nD * 3]));
+                          if (view == nD - 1) pr.add(1);
+                        }
+                        evals += local;
+                      },
+                      cancel);
     if (cancel && cancel->cancelled()) {
       r.cancelled = true;
       break;
@@ -211,7 +228,8 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
       writer->writeChunk(c, chunk.data());
       r.writeSeconds += since(w0);
       if (++written == abortAfter) {
-        std::fprintf(stderr, "\nBTF_TEST_ABORT_AFTER_CHUNKS: exiting abruptly after %d chunk(s)\n", written);
+        std::fprintf(stderr, "\nBTF_TEST_ABORT_AFTER_CHUNKS: exiting abruptly after %d chunk(s)\n",
+                     written);
         std::_Exit(75);
       }
     }

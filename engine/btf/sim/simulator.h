@@ -43,7 +43,7 @@ struct SimReport {
   std::string output;
   double wallSeconds = 0, hitMapSeconds = 0, evalSeconds = 0, writeSeconds = 0;
   uint64_t hitMapRays = 0;
-  uint64_t abrdfValues = 0;    // (texel, view, light) values computed
+  uint64_t abrdfValues = 0;      // (texel, view, light) values computed
   uint64_t brdfEvaluations = 0;  // (sample, view, light) BRDF × visibility evaluations
   uint64_t peakRssBytes = 0, outputBytes = 0;
   int chunks = 0, chunksResumed = 0;

@@ -17,7 +17,9 @@ namespace {
 
 constexpr char kMagic[8] = {'B', 'T', 'F', 'S', 'T', 'O', 'R', '1'};
 constexpr int kFormatVersion = 1;
-uint64_t alignUp(uint64_t x, uint64_t a) { return (x + a - 1) / a * a; }
+uint64_t alignUp(uint64_t x, uint64_t a) {
+  return (x + a - 1) / a * a;
+}
 
 struct TableEntry {
   uint64_t checksum;
@@ -53,8 +55,9 @@ std::string infoToJson(const BtfInfo& i) {
   j["scene"]["hash"] = i.sceneHash;
   j["scene"]["json"] = i.sceneJson;
   j["plan"] = i.plan;
-  j["vmf"] = "per direction, per texel: (coverage in [0,1], mean signed hit distance to the "
-             "reference plane along the direction), float32";
+  j["vmf"] =
+      "per direction, per texel: (coverage in [0,1], mean signed hit distance to the "
+      "reference plane along the direction), float32";
   return j.dump(1);
 }
 
@@ -118,21 +121,23 @@ BtfWriter::BtfWriter(const std::string& path, const BtfInfo& info, bool resume)
     {
       BtfReader probe(m_partial);
       if (probe.headerJson() != header)
-        throw Error(m_partial + ": cannot resume: it was made with a different scene or settings "
+        throw Error(m_partial +
+                    ": cannot resume: it was made with a different scene or settings "
                     "(rerun without --resume to start over)");
     }
     m_fd = ::open(m_partial.c_str(), O_RDWR);
     if (m_fd < 0) throw Error(sysError(m_partial, "cannot open for resuming"));
     std::vector<TableEntry> table(size_t(info.chunks()));
-    if (::pread(m_fd, table.data(), table.size() * sizeof(TableEntry), off_t(m_layout.tableOffset)) !=
-        ssize_t(table.size() * sizeof(TableEntry)))
+    if (::pread(m_fd, table.data(), table.size() * sizeof(TableEntry),
+                off_t(m_layout.tableOffset)) != ssize_t(table.size() * sizeof(TableEntry)))
       throw Error(sysError(m_partial, "cannot read chunk table"));
     std::vector<char> buf;
     for (int c = 0; c < info.chunks(); ++c) {
       if (table[size_t(c)].state != kDone) continue;
       const uint64_t bytes = uint64_t(info.chunkEnd(c) - info.chunkBegin(c)) * info.texelBytes();
       buf.resize(bytes);
-      if (::pread(m_fd, buf.data(), bytes, off_t(m_layout.chunkOffset(info, c))) == ssize_t(bytes) &&
+      if (::pread(m_fd, buf.data(), bytes, off_t(m_layout.chunkOffset(info, c))) ==
+              ssize_t(bytes) &&
           checksum64(buf.data(), bytes) == table[size_t(c)].checksum)
         m_done[size_t(c)] = true;  // verified: keep it
     }
@@ -144,7 +149,8 @@ BtfWriter::BtfWriter(const std::string& path, const BtfInfo& info, bool resume)
   m_fd = ::open(m_partial.c_str(), O_RDWR | O_CREAT | O_TRUNC, 0644);
   if (m_fd < 0) throw Error(sysError(m_partial, "cannot create"));
   if (::ftruncate(m_fd, off_t(m_layout.totalBytes)) != 0)
-    throw Error(sysError(m_partial, "cannot size the file to " + std::to_string(m_layout.totalBytes) + " bytes"));
+    throw Error(sysError(
+        m_partial, "cannot size the file to " + std::to_string(m_layout.totalBytes) + " bytes"));
   const uint64_t hlen = header.size(), hsum = checksum64(header);
   pwriteAll(kMagic, 8, 0);
   pwriteAll(&hlen, 8, 8);
@@ -200,7 +206,8 @@ void BtfWriter::writeChunk(int c, const float* data) {
 
 void BtfWriter::finish() {
   for (size_t c = 0; c < m_done.size(); ++c)
-    if (!m_done[c]) throw Error(m_partial + ": cannot finish: chunk " + std::to_string(c) + " missing");
+    if (!m_done[c])
+      throw Error(m_partial + ": cannot finish: chunk " + std::to_string(c) + " missing");
   if (::fsync(m_fd) != 0) throw Error(sysError(m_partial, "fsync failed"));
   ::close(m_fd);
   m_fd = -1;
@@ -227,12 +234,13 @@ BtfReader::BtfReader(const std::string& path) : m_path(path) {
   if (hlen > size - 24 || hlen > (256u << 20)) throw Error(path + ": truncated or corrupt header");
   m_headerJson.resize(hlen);
   preadAll(m_headerJson.data(), hlen, 24);
-  if (checksum64(m_headerJson) != hsum) throw Error(path + ": header checksum mismatch (corrupted file)");
+  if (checksum64(m_headerJson) != hsum)
+    throw Error(path + ": header checksum mismatch (corrupted file)");
   m_info = infoFromJson(m_headerJson, path);
   m_layout = BtfLayout::of(m_info, hlen);
   if (size != m_layout.totalBytes)
-    throw Error(path + ": truncated or padded file: expected " + std::to_string(m_layout.totalBytes) +
-                " bytes, found " + std::to_string(size));
+    throw Error(path + ": truncated or padded file: expected " +
+                std::to_string(m_layout.totalBytes) + " bytes, found " + std::to_string(size));
   std::vector<TableEntry> table(size_t(m_info.chunks()));
   preadAll(table.data(), table.size() * sizeof(TableEntry), m_layout.tableOffset);
   for (const auto& e : table) m_checksums.push_back(e.state == kDone ? e.checksum : 0);
@@ -247,7 +255,8 @@ void BtfReader::preadAll(void* data, uint64_t bytes, uint64_t offset) const {
   while (bytes > 0) {
     const ssize_t r = ::pread(m_fd, p, std::min<uint64_t>(bytes, 1u << 30), off_t(offset));
     if (r < 0 && errno == EINTR) continue;
-    if (r <= 0) throw Error(m_path + ": read failed or file truncated at offset " + std::to_string(offset));
+    if (r <= 0)
+      throw Error(m_path + ": read failed or file truncated at offset " + std::to_string(offset));
     p += r;
     bytes -= uint64_t(r);
     offset += uint64_t(r);
@@ -260,24 +269,28 @@ std::vector<float> BtfReader::readChunk(int c) const {
   std::vector<float> out(bytes / sizeof(float));
   preadAll(out.data(), bytes, m_layout.chunkOffset(m_info, c));
   if (checksum64(out.data(), bytes) != m_checksums[size_t(c)])
-    throw Error(m_path + ": chunk " + std::to_string(c) + " checksum mismatch (corrupted or incomplete data)");
+    throw Error(m_path + ": chunk " + std::to_string(c) +
+                " checksum mismatch (corrupted or incomplete data)");
   return out;
 }
 
 std::vector<float> BtfReader::readTexel(int64_t t) const {
   if (t < 0 || t >= m_info.texels()) throw Error(m_path + ": texel index out of range");
   std::vector<float> out(m_info.texelBytes() / sizeof(float));
-  preadAll(out.data(), m_info.texelBytes(), m_layout.dataOffset + uint64_t(t) * m_info.texelBytes());
+  preadAll(out.data(), m_info.texelBytes(),
+           m_layout.dataOffset + uint64_t(t) * m_info.texelBytes());
   return out;
 }
 
 std::vector<float> BtfReader::readImage(int view, int light) const {
   const int n = m_info.nDirs();
-  if (view < 0 || view >= n || light < 0 || light >= n) throw Error(m_path + ": direction index out of range");
+  if (view < 0 || view >= n || light < 0 || light >= n)
+    throw Error(m_path + ": direction index out of range");
   std::vector<float> out(size_t(m_info.texels()) * 3);
   const uint64_t within = (uint64_t(view) * n + uint64_t(light)) * 3 * sizeof(float);
   for (int64_t t = 0; t < m_info.texels(); ++t)
-    preadAll(&out[size_t(t) * 3], 3 * sizeof(float), m_layout.dataOffset + uint64_t(t) * m_info.texelBytes() + within);
+    preadAll(&out[size_t(t) * 3], 3 * sizeof(float),
+             m_layout.dataOffset + uint64_t(t) * m_info.texelBytes() + within);
   return out;
 }
 

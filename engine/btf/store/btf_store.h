@@ -14,8 +14,8 @@ struct BtfInfo {
   // Geometry of the data.
   int nu = 0, nv = 0;
   double Lx = 1, Ly = 1;
-  std::string directionSet;                     // name accepted by DirectionSet::fromName
-  std::vector<std::array<double, 2>> dirsDeg;   // (θ, φ) in degrees, shared by view and light
+  std::string directionSet;                    // name accepted by DirectionSet::fromName
+  std::vector<std::array<double, 2>> dirsDeg;  // (θ, φ) in degrees, shared by view and light
   int chunkTexels = 1;
   // Settings and provenance.
   int spp = 1;

@@ -37,7 +37,8 @@ struct PeriodicTracer::Impl {
   }
 };
 
-PeriodicTracer::PeriodicTracer(const TileGeometry& g) : m_geom(g), m_impl(std::make_unique<Impl>()) {
+PeriodicTracer::PeriodicTracer(const TileGeometry& g)
+    : m_geom(g), m_impl(std::make_unique<Impl>()) {
   BTF_CHECK(g.Lx > 0 && g.Ly > 0);
   if (g.mesh.tri.empty()) throw Error("cannot trace an empty scene");
   const double extent = std::max({g.Lx, g.Ly, double(g.zmax - g.zmin)});
@@ -60,8 +61,10 @@ PeriodicTracer::PeriodicTracer(const TileGeometry& g) : m_geom(g), m_impl(std::m
     const auto& tri = g.mesh.tri[t];
     const Vec3 a = g.mesh.pos[tri.x], b = g.mesh.pos[tri.y], c = g.mesh.pos[tri.z];
     const Vec3 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
-    const int i0 = int(std::ceil((-m - hi.x) / g.Lx)), i1 = int(std::floor((g.Lx + m - lo.x) / g.Lx));
-    const int j0 = int(std::ceil((-m - hi.y) / g.Ly)), j1 = int(std::floor((g.Ly + m - lo.y) / g.Ly));
+    const int i0 = int(std::ceil((-m - hi.x) / g.Lx)),
+              i1 = int(std::floor((g.Lx + m - lo.x) / g.Lx));
+    const int j0 = int(std::ceil((-m - hi.y) / g.Ly)),
+              j1 = int(std::floor((g.Ly + m - lo.y) / g.Ly));
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i) {
         const Vec3 off(float(i * g.Lx), float(j * g.Ly), 0.f);
@@ -76,9 +79,8 @@ PeriodicTracer::PeriodicTracer(const TileGeometry& g) : m_geom(g), m_impl(std::m
   }
   m_embreeTriangles = im.copyToPrim.size();
   RTCGeometry geom = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                         RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                         verts.size() / 3));
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), verts.size() / 3));
   auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
       geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), idx.size() / 3));
   if (!vb || !ib) throw Error("Embree could not allocate the geometry buffers");

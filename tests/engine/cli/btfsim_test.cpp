@@ -13,7 +13,9 @@
 namespace btf {
 namespace {
 
-std::string scenePath(const std::string& n) { return test::sourceDir() + "/resources/scenes/" + n + ".json"; }
+std::string scenePath(const std::string& n) {
+  return test::sourceDir() + "/resources/scenes/" + n + ".json";
+}
 
 TEST(Btfsim, BadArgumentsAreOneLineErrorsWithNonzeroExit) {
   const auto dir = test::tempDir("cli_err");
@@ -21,15 +23,20 @@ TEST(Btfsim, BadArgumentsAreOneLineErrorsWithNonzeroExit) {
   struct Case {
     std::string args, expect;
   } cases[] = {
-      {"simulate " + (dir / "broken.json").string() + " -o x.btf -q", "broken.json:2: JSON syntax error"},
-      {"simulate " + scenePath("brick") + " -o x.btf -q --dirs bonn80", "unknown direction set 'bonn80'"},
+      {"simulate " + (dir / "broken.json").string() + " -o x.btf -q",
+       "broken.json:2: JSON syntax error"},
+      {"simulate " + scenePath("brick") + " -o x.btf -q --dirs bonn80",
+       "unknown direction set 'bonn80'"},
       {"simulate " + scenePath("brick") + " -o x.btf -q --texels 0", "invalid --texels '0'"},
       {"simulate " + scenePath("brick") + " -o x.btf -q --texels -4x4", "invalid --texels"},
-      {"simulate " + scenePath("brick") + " -o x.btf -q --shadows soft", "unknown shadow mode 'soft'"},
-      {"simulate " + scenePath("brick") + " -o x.btf -q --bias nan", "shadow bias must be a finite number"},
+      {"simulate " + scenePath("brick") + " -o x.btf -q --shadows soft",
+       "unknown shadow mode 'soft'"},
+      {"simulate " + scenePath("brick") + " -o x.btf -q --bias nan",
+       "shadow bias must be a finite number"},
       {"simulate " + scenePath("brick") + " -o x.btf -q --memory-budget 10Q", "unknown unit 'Q'"},
       {"simulate missing.json -o x.btf", "missing.json: cannot open scene file"},
-      {"simulate " + scenePath("brick") + " -o x.btf -q --texels 64 --dirs 16x32 --memory-budget 100M",
+      {"simulate " + scenePath("brick") +
+           " -o x.btf -q --texels 64 --dirs 16x32 --memory-budget 100M",
        "refusing to start: memory budget"},
       {"brdf " + scenePath("brick") + " --pair 95,0,0,0", "θ must be in [0, 90)"},
       {"brdf " + scenePath("brick") + " --pair 10,0,0", "expected θi,φi,θo,φo"},
@@ -48,16 +55,25 @@ TEST(Btfsim, BadArgumentsAreOneLineErrorsWithNonzeroExit) {
 TEST(Btfsim, SimulateSliceInfoAndBrdfAgree) {
   const auto dir = test::tempDir("cli_flow");
   const std::string btf = (dir / "flat.btf").string();
-  std::ofstream(dir / "flat.json") << R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": [0.5, 0.25, 1]}},
+  std::ofstream(dir / "flat.json")
+      << R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": [0.5, 0.25, 1]}},
     "parts": [{"type": "plane", "material": "m"}]})";
   std::string out;
-  ASSERT_EQ(test::runBtfsim("simulate " + (dir / "flat.json").string() + " -o " + btf + " --texels 4x3 --json -q", &out), 0) << out;
+  ASSERT_EQ(test::runBtfsim("simulate " + (dir / "flat.json").string() + " -o " + btf +
+                                " --texels 4x3 --json -q",
+                            &out),
+            0)
+      << out;
   EXPECT_NE(out.find("\"abrdf_evaluations_per_second\""), std::string::npos);
   EXPECT_NE(out.find("estimate: "), std::string::npos);
   ASSERT_EQ(test::runBtfsim("info " + btf, &out), 0) << out;
   EXPECT_NE(out.find("all verified"), std::string::npos);
   // Spatial EXR slice holds aBRDF itself: ρ/π.
-  ASSERT_EQ(test::runBtfsim("slice " + btf + " --view 20,30 --light 50,200 -o " + (dir / "s.exr").string(), &out), 0) << out;
+  ASSERT_EQ(
+      test::runBtfsim(
+          "slice " + btf + " --view 20,30 --light 50,200 -o " + (dir / "s.exr").string(), &out),
+      0)
+      << out;
   int w, h;
   auto px = readRgbImage((dir / "s.exr").string(), &w, &h);
   EXPECT_EQ(w, 4);
@@ -65,12 +81,19 @@ TEST(Btfsim, SimulateSliceInfoAndBrdfAgree) {
   EXPECT_NEAR(px[0], 0.5 / kPi, 1e-5);
   EXPECT_NEAR(px[1], 0.25 / kPi, 1e-5);
   // PNG: sRGB of π·aBRDF·exposure → albedo 0.5 encodes as 188 (of 255).
-  ASSERT_EQ(test::runBtfsim("slice " + btf + " --texel avg --light 30,0 --size 16 -o " + (dir / "h.png").string(), &out), 0) << out;
+  ASSERT_EQ(test::runBtfsim("slice " + btf + " --texel avg --light 30,0 --size 16 -o " +
+                                (dir / "h.png").string(),
+                            &out),
+            0)
+      << out;
   px = readRgbImage((dir / "h.png").string(), &w, &h);
   EXPECT_EQ(w, 16);
   EXPECT_NEAR(px[(8 * 16 + 8) * 3] * 255, 188, 1.0);
   EXPECT_EQ(px[0], 0.0f);  // outside the hemisphere disk
-  ASSERT_EQ(test::runBtfsim("brdf " + (dir / "flat.json").string() + " --pair 10,0,80,90 --spp 8 --json", &out), 0) << out;
+  ASSERT_EQ(test::runBtfsim(
+                "brdf " + (dir / "flat.json").string() + " --pair 10,0,80,90 --spp 8 --json", &out),
+            0)
+      << out;
   EXPECT_NE(out.find("0.159154"), std::string::npos) << out;
 }
 
@@ -78,7 +101,9 @@ TEST(Btfsim, BrdfReadsPairsFromCsvWithLineErrors) {
   const auto dir = test::tempDir("cli_csv");
   std::ofstream(dir / "p.csv") << "theta_i,phi_i,theta_o,phi_o\n10,0,20,0\n30,0,oops,0\n";
   std::string out;
-  EXPECT_NE(test::runBtfsim("brdf " + scenePath("brick") + " --pairs " + (dir / "p.csv").string(), &out), 0);
+  EXPECT_NE(
+      test::runBtfsim("brdf " + scenePath("brick") + " --pairs " + (dir / "p.csv").string(), &out),
+      0);
   EXPECT_NE(out.find("p.csv:3"), std::string::npos) << out;
 }
 

@@ -6,7 +6,8 @@ namespace btf {
 namespace {
 
 TEST(DirectionSet, CountsAndSolidAnglesOfEverySet) {
-  for (auto [name, count] : {std::pair{"bonn81", 81}, {"ubo151", 151}, {"16x32", 512}, {"20x40", 800}, {"3x5", 15}}) {
+  for (auto [name, count] :
+       {std::pair{"bonn81", 81}, {"ubo151", 151}, {"16x32", 512}, {"20x40", 800}, {"3x5", 15}}) {
     const DirectionSet s = DirectionSet::fromName(name);
     EXPECT_EQ(s.size(), count) << name;
     double sum = 0;

@@ -11,9 +11,11 @@ namespace btf {
 namespace {
 
 Material ct(const std::string& dist, const std::string& fres, float rough) {
-  const Scene s = test::sceneFromJson(std::string(R"({"btfscene": 1, "materials": {"m": {"type": "cook_torrance",
-     "diffuse": 0.1, "specular": 0.9, "roughness": )") + std::to_string(rough) + R"(, "distribution": ")" + dist +
-     R"(", "fresnel": ")" + fres + R"(", "f0": [0.9, 0.6, 0.3], "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1], "ior": 1.5}},
+  const Scene s = test::sceneFromJson(
+      std::string(R"({"btfscene": 1, "materials": {"m": {"type": "cook_torrance",
+     "diffuse": 0.1, "specular": 0.9, "roughness": )") +
+      std::to_string(rough) + R"(, "distribution": ")" + dist + R"(", "fresnel": ")" + fres +
+      R"(", "f0": [0.9, 0.6, 0.3], "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1], "ior": 1.5}},
      "parts": [{"type": "plane", "material": "m"}]})");
   return compileMaterial(s.materials[0]);
 }
@@ -31,11 +33,13 @@ double conductorRef(double cosI, double eta, double k) {
 TEST(Material, ConductorFresnelMatchesComplexReference) {
   for (double c : {1.0, 0.9, 0.5, 0.2, 0.05, 0.001})
     for (auto [e, k] : {std::pair{0.2, 3.9}, {1.1, 2.1}, {0.05, 4.0}, {2.0, 0.0}})
-      EXPECT_NEAR(fresnelConductor(float(c), float(e), float(k)), conductorRef(c, e, k), 2e-4) << c << " " << e;
+      EXPECT_NEAR(fresnelConductor(float(c), float(e), float(k)), conductorRef(c, e, k), 2e-4)
+          << c << " " << e;
 }
 
 TEST(Material, LambertIsAlbedoOverPiAndConservesEnergy) {
-  const Scene s = test::sceneFromJson(R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": [1, 0.5, 0]}},
+  const Scene s = test::sceneFromJson(
+      R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": [1, 0.5, 0]}},
      "parts": [{"type": "plane", "material": "m"}]})");
   const Material m = compileMaterial(s.materials[0]);
   const Rgb f = evalBrdf(m, glm::normalize(Vec3(0.3f, 0.1f, 0.9f)), Vec3(0, 0, 1));
@@ -95,7 +99,8 @@ TEST(Material, FiniteAtGrazingAndNearMirror) {
       EXPECT_GE(f.x, 0.0f);
     }
   }
-  const Scene s = test::sceneFromJson(R"({"btfscene": 1, "materials": {"m": {"type": "ward", "alpha_x": 0.002, "alpha_y": 0.002}},
+  const Scene s = test::sceneFromJson(
+      R"({"btfscene": 1, "materials": {"m": {"type": "ward", "alpha_x": 0.002, "alpha_y": 0.002}},
      "parts": [{"type": "plane", "material": "m"}]})");
   const Material w = compileMaterial(s.materials[0]);
   const Rgb f = evalBrdf(w, Vec3(0.99999f, 0, 0.0045f), Vec3(-0.99999f, 0, 0.0045f));

@@ -59,19 +59,23 @@ TEST(SceneFile, MalformedJsonNamesTheLine) {
 }
 
 TEST(SceneFile, UnknownKeyNamesThePathAndTheKnownKeys) {
-  const std::string e = errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albdo": 0.5}},
+  const std::string e =
+      errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albdo": 0.5}},
     "parts": [{"type": "plane", "material": "m"}]})");
   EXPECT_NE(e.find("materials.m.albdo"), std::string::npos) << e;
   EXPECT_NE(e.find("unknown key"), std::string::npos) << e;
   EXPECT_NE(e.find("albedo"), std::string::npos) << e;
-  EXPECT_NE(errorOf(R"({"btfscene": 1, "materialz": {}, "materials": {}, "parts": []})").find("materialz"),
+  EXPECT_NE(errorOf(R"({"btfscene": 1, "materialz": {}, "materials": {}, "parts": []})")
+                .find("materialz"),
             std::string::npos);
 }
 
 TEST(SceneFile, WrongTypeAndRangeAreErrors) {
-  std::string e = errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": "red"}},
+  std::string e =
+      errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": "red"}},
     "parts": [{"type": "plane", "material": "m"}]})");
-  EXPECT_NE(e.find("materials.m.albedo: expected an RGB triple, got string"), std::string::npos) << e;
+  EXPECT_NE(e.find("materials.m.albedo: expected an RGB triple, got string"), std::string::npos)
+      << e;
   e = errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": [0.5, 2, 0.5]}},
     "parts": [{"type": "plane", "material": "m"}]})");
   EXPECT_NE(e.find("materials.m.albedo[1]: must be <= 1 (got 2)"), std::string::npos) << e;
@@ -91,8 +95,9 @@ TEST(SceneFile, WrongTypeAndRangeAreErrors) {
 
 TEST(SceneFile, NonFiniteNumbersAreErrors) {
   // JSON has no NaN literal; NaN and an overflowing literal are rejected with the line.
-  std::string e = errorOf("{\"btfscene\": 1, \"materials\": {\"m\": {\"type\": \"lambert\"}},\n"
-                          "\"parts\": [{\"type\": \"plane\", \"material\": \"m\", \"height\": 1e999}]}");
+  std::string e = errorOf(
+      "{\"btfscene\": 1, \"materials\": {\"m\": {\"type\": \"lambert\"}},\n"
+      "\"parts\": [{\"type\": \"plane\", \"material\": \"m\", \"height\": 1e999}]}");
   EXPECT_NE(e.find("test.json: JSON error"), std::string::npos) << e;
   EXPECT_NE(e.find("number overflow parsing '1e999'"), std::string::npos) << e;
   e = errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": NaN}},
@@ -102,20 +107,29 @@ TEST(SceneFile, NonFiniteNumbersAreErrors) {
 
 TEST(SceneFile, StructuralErrors) {
   EXPECT_NE(errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "lambert"}}, "parts": []})")
-                .find("the scene is empty"), std::string::npos);
-  EXPECT_NE(errorOf(R"({"btfscene": 2, "materials": {}, "parts": []})").find("unsupported scene format version"),
+                .find("the scene is empty"),
+            std::string::npos);
+  EXPECT_NE(errorOf(R"({"btfscene": 2, "materials": {}, "parts": []})")
+                .find("unsupported scene format version"),
             std::string::npos);
   EXPECT_NE(errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "lambert"}},
-    "parts": [{"type": "plane", "material": "x"}]})").find("parts[0].material: no material named 'x'"),
+    "parts": [{"type": "plane", "material": "x"}]})")
+                .find("parts[0].material: no material named 'x'"),
             std::string::npos);
   EXPECT_NE(errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "velvet"}},
-    "parts": [{"type": "plane", "material": "m"}]})").find("unknown material type 'velvet'"),
+    "parts": [{"type": "plane", "material": "m"}]})")
+                .find("unknown material type 'velvet'"),
             std::string::npos);
   EXPECT_NE(errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "lambert"}},
-    "parts": [{"type": "blob", "material": "m"}]})").find("parts[0].type: unknown part type 'blob'"),
+    "parts": [{"type": "blob", "material": "m"}]})")
+                .find("parts[0].type: unknown part type 'blob'"),
             std::string::npos);
-  EXPECT_NE(errorOf(R"({"btfscene": 1, "materials": {"m": {"type": "cook_torrance", "distribution": "phong"}},
-    "parts": [{"type": "plane", "material": "m"}]})").find("unknown value 'phong'"), std::string::npos);
+  EXPECT_NE(
+      errorOf(
+          R"({"btfscene": 1, "materials": {"m": {"type": "cook_torrance", "distribution": "phong"}},
+    "parts": [{"type": "plane", "material": "m"}]})")
+          .find("unknown value 'phong'"),
+      std::string::npos);
 }
 
 TEST(SceneFile, MeshErrorsNameTheFile) {
@@ -127,7 +141,8 @@ TEST(SceneFile, MeshErrorsNameTheFile) {
                                     "f 1 2 3\nf 2 1 4\nf 1 2 5\n";
   auto scene = [](const std::string& file) {
     return std::string(R"({"btfscene": 1, "materials": {"m": {"type": "lambert"}},
-      "parts": [{"type": "mesh", "material": "m", "path": ")") + file + R"("}]})";
+      "parts": [{"type": "mesh", "material": "m", "path": ")") +
+           file + R"("}]})";
   };
   std::string e = errorOf(scene("missing.obj"), dir);
   EXPECT_NE(e.find("missing.obj: mesh file not found"), std::string::npos) << e;
@@ -135,23 +150,31 @@ TEST(SceneFile, MeshErrorsNameTheFile) {
   e = errorOf(scene("degenerate.obj"), dir);
   EXPECT_NE(e.find("degenerate.obj: degenerate mesh"), std::string::npos) << e;
   e = errorOf(scene("repeated.obj"), dir);
-  EXPECT_NE(e.find("repeated.obj: mesh has no faces"), std::string::npos) << e;  // OpenMesh drops the face
+  EXPECT_NE(e.find("repeated.obj: mesh has no faces"), std::string::npos)
+      << e;  // OpenMesh drops the face
   e = errorOf(scene("fan.obj"), dir);
   EXPECT_NE(e.find("fan.obj: non-manifold mesh"), std::string::npos) << e;
   e = errorOf(std::string(R"({"btfscene": 1, "materials": {"m": {"type": "lambert"}},
-      "parts": [{"type": "mesh", "material": "m"}]})"), dir);
+      "parts": [{"type": "mesh", "material": "m"}]})"),
+              dir);
   EXPECT_NE(e.find("missing required key 'path'"), std::string::npos) << e;
 }
 
 TEST(SceneFile, SchemaDeclaresEveryTypeAndIsCommitted) {
   const std::string schema = sceneJsonSchema();
-  for (const auto& t : materialTypes()) EXPECT_NE(schema.find("\"const\": \"" + t.name + "\""), std::string::npos);
-  for (const auto& t : partTypes()) EXPECT_NE(schema.find("\"const\": \"" + t.name + "\""), std::string::npos);
-  // The committed schema is the generated one (regenerate with `btfsim schema -o docs/scene.schema.json`).
-  EXPECT_EQ(test::readFile(std::filesystem::path(test::sourceDir()) / "docs" / "scene.schema.json"), schema);
+  for (const auto& t : materialTypes())
+    EXPECT_NE(schema.find("\"const\": \"" + t.name + "\""), std::string::npos);
+  for (const auto& t : partTypes())
+    EXPECT_NE(schema.find("\"const\": \"" + t.name + "\""), std::string::npos);
+  // The committed schema is the generated one (regenerate with `btfsim schema -o
+  // docs/scene.schema.json`).
+  EXPECT_EQ(test::readFile(std::filesystem::path(test::sourceDir()) / "docs" / "scene.schema.json"),
+            schema);
   // The reference part of docs/scene-format.md is the generated one (`btfsim scene-doc`).
-  const std::string doc = test::readFile(std::filesystem::path(test::sourceDir()) / "docs" / "scene-format.md");
-  EXPECT_NE(doc.find(sceneParamsMarkdown()), std::string::npos) << "regenerate the reference of docs/scene-format.md";
+  const std::string doc =
+      test::readFile(std::filesystem::path(test::sourceDir()) / "docs" / "scene-format.md");
+  EXPECT_NE(doc.find(sceneParamsMarkdown()), std::string::npos)
+      << "regenerate the reference of docs/scene-format.md";
 }
 
 }  // namespace

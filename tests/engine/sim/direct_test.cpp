@@ -43,7 +43,8 @@ std::vector<float> simulateAll(const Scene& scene, const std::string& dirs, int 
 }
 
 TEST(Direct, FlatLambertIsAlbedoOverPiEverywhere) {
-  const Scene s = test::sceneFromJson(flatScene(R"({"type": "lambert", "albedo": [0.9, 0.5, 0.1]})"));
+  const Scene s =
+      test::sceneFromJson(flatScene(R"({"type": "lambert", "albedo": [0.9, 0.5, 0.1]})"));
   const float ref[3] = {float(0.9 / kPi), float(0.5 / kPi), float(0.1 / kPi)};
   for (const char* dirs : {"bonn81", "ubo151", "16x32"})
     for (ShadowMode mode : {ShadowMode::Map, ShadowMode::Rays}) {
@@ -57,8 +58,8 @@ TEST(Direct, FlatLambertIsAlbedoOverPiEverywhere) {
 
 // Independent double-precision Cook-Torrance (its own formulas: Beckmann Smith via the
 // complementary error function, conductor Fresnel via complex indices).
-double refCt(const DVec3& wi, const DVec3& wo, bool ggx, double a, int fresnel, double f0, double eta,
-             double k, double ks, double kd) {
+double refCt(const DVec3& wi, const DVec3& wo, bool ggx, double a, int fresnel, double f0,
+             double eta, double k, double ks, double kd) {
   const DVec3 h = glm::normalize(wi + wo);
   const double ch = h.z, c2 = ch * ch, t2 = (1 - c2) / c2;
   const double D = ggx ? a * a / (kPi * std::pow(c2 * (a * a - 1) + 1, 2))
@@ -86,8 +87,10 @@ TEST(Direct, FlatCookTorranceEqualsTheAnalyticBrdf) {
   for (const char* dist : {"ggx", "beckmann"})
     for (int fr = 0; fr < 3; ++fr) {
       const char* fname[] = {"none", "schlick", "conductor"};
-      const std::string mat = std::string(R"({"type": "cook_torrance", "diffuse": 0.2, "specular": 0.7, "roughness": 0.35, "distribution": ")") +
-                              dist + R"(", "fresnel": ")" + fname[fr] + R"(", "f0": 0.3, "eta": 0.5, "k": 2.5})";
+      const std::string mat =
+          std::string(
+              R"({"type": "cook_torrance", "diffuse": 0.2, "specular": 0.7, "roughness": 0.35, "distribution": ")") +
+          dist + R"(", "fresnel": ")" + fname[fr] + R"(", "f0": 0.3, "eta": 0.5, "k": 2.5})";
       SCOPED_TRACE(std::string(dist) + " " + fname[fr]);
       const Scene s = test::sceneFromJson(flatScene(mat));
       const auto v = simulateAll(s, "bonn81", 2, 1, ShadowMode::Map);
@@ -95,7 +98,8 @@ TEST(Direct, FlatCookTorranceEqualsTheAnalyticBrdf) {
       double worst = 0;
       for (int vi = 0; vi < n; ++vi)
         for (int li = 0; li < n; ++li) {
-          const double ref = refCt(dirs[li].w, dirs[vi].w, dist[0] == 'g', 0.35, fr, 0.3, 0.5, 2.5, 0.7, 0.2);
+          const double ref =
+              refCt(dirs[li].w, dirs[vi].w, dist[0] == 'g', 0.35, fr, 0.3, 0.5, 2.5, 0.7, 0.2);
           const double got = v[(size_t(vi) * n + li) * 3];
           worst = std::max(worst, std::abs(got - ref) / ref);
         }
@@ -127,8 +131,11 @@ TEST(Direct, ShadowMapAgreesWithShadowRays) {
     if (avgB > 1e-3) worstAvg = std::max(worstAvg, std::abs(avgA - avgB) / avgB);
   }
   const double relL1 = sumDiff / sumA, frac = double(differ) / double(count);
-  std::printf("[ measured ] shadow map vs rays on brick %dx%d spp 2 bonn81: relative L1 %.4f, values differing "
-              "by >10%%: %.2f%%, worst tile-averaged pair %.4f\n", T, T, relL1, 100 * frac, worstAvg);
+  std::printf(
+      "[ measured ] shadow map vs rays on brick %dx%d spp 2 bonn81: relative L1 %.4f, values "
+      "differing "
+      "by >10%%: %.2f%%, worst tile-averaged pair %.4f\n",
+      T, T, relL1, 100 * frac, worstAvg);
   EXPECT_LT(relL1, 0.03);
   EXPECT_LT(frac, 0.05);
   EXPECT_LT(worstAvg, 0.05);
@@ -139,11 +146,14 @@ TEST(Direct, ReciprocityOfTheAveragedBrdfOnHeightFields) {
       R"([{"type": "sine", "material": "m", "amplitude": 0.1, "periods": [2, 1]}])",
       R"([{"type": "vgrooves", "material": "m", "count": 3, "depth": 0.25}])",
       R"([{"type": "bumps", "material": "m", "count": [3, 3], "height": 0.12, "radius": 0.4, "shape": "gaussian"}])"};
-  const std::vector<std::array<double, 4>> pairs = {{30, 0, 60, 90}, {45, 20, 20, 200}, {60, 45, 35, 180}, {70, 10, 40, 300}};
+  const std::vector<std::array<double, 4>> pairs = {
+      {30, 0, 60, 90}, {45, 20, 20, 200}, {60, 45, 35, 180}, {70, 10, 40, 300}};
   for (const char* parts : scenes) {
     SCOPED_TRACE(parts);
-    const Scene s = test::sceneFromJson(std::string(R"({"btfscene": 1, "materials": {"m": {"type": "cook_torrance",
-      "diffuse": 0.5, "specular": 0.5, "roughness": 0.4, "fresnel": "none"}}, "parts": )") + parts + "}");
+    const Scene s = test::sceneFromJson(
+        std::string(R"({"btfscene": 1, "materials": {"m": {"type": "cook_torrance",
+      "diffuse": 0.5, "specular": 0.5, "roughness": 0.4, "fresnel": "none"}}, "parts": )") +
+        parts + "}");
     const TileGeometry g = buildTileGeometry(s);
     const PeriodicTracer tr(g);
     const auto mats = compileMaterials(s);
@@ -155,7 +165,8 @@ TEST(Direct, ReciprocityOfTheAveragedBrdfOnHeightFields) {
     const auto a = averagedBrdf(tr, mats, fw, 160), b = averagedBrdf(tr, mats, bw, 160);
     for (size_t k = 0; k < pairs.size(); ++k) {
       const double rel = std::abs(a[k].x - b[k].x) / std::max({a[k].x, b[k].x, 1e-3f});
-      std::printf("[ measured ] reciprocity pair %zu: %.5f vs %.5f (rel %.4f)\n", k, a[k].x, b[k].x, rel);
+      std::printf("[ measured ] reciprocity pair %zu: %.5f vs %.5f (rel %.4f)\n", k, a[k].x, b[k].x,
+                  rel);
       EXPECT_LT(rel, 0.02);
     }
   }
@@ -172,7 +183,8 @@ TEST(Direct, PeriodicityTileEqualsTwoByTwoRepeat) {
   const PeriodicTracer t1(g1), t4(g4);
   const auto m = compileMaterials(one);
   std::vector<DirectionPair> pairs;
-  for (auto p : std::vector<std::array<double, 4>>{{10, 0, 20, 90}, {60, 30, 50, 200}, {75, 0, 80, 180}, {85, 45, 30, 45}})
+  for (auto p : std::vector<std::array<double, 4>>{
+           {10, 0, 20, 90}, {60, 30, 50, 200}, {75, 0, 80, 180}, {85, 45, 30, 45}})
     pairs.push_back(pairFromDegrees(p[0], p[1], p[2], p[3]));
   const auto a = averagedBrdf(t1, m, pairs, 128), b = averagedBrdf(t4, m, pairs, 256);
   for (size_t k = 0; k < pairs.size(); ++k) EXPECT_NEAR(a[k].x, b[k].x, 0.01 * a[k].x) << k;

@@ -57,7 +57,8 @@ TEST(BtfStore, RoundTripOfTexelsImagesAndVmf) {
   EXPECT_EQ(std::filesystem::file_size(path), r.layout().totalBytes);
   for (int64_t t = 0; t < info.texels(); ++t) EXPECT_EQ(r.readTexel(t), texelValues(info, t));
   const auto img = r.readImage(1, 0);  // view 1, light 0 → element (1 * 2 + 0) * 3
-  for (int64_t t = 0; t < info.texels(); ++t) EXPECT_EQ(img[size_t(t) * 3 + 1], texelValues(info, t)[7]);
+  for (int64_t t = 0; t < info.texels(); ++t)
+    EXPECT_EQ(img[size_t(t) * 3 + 1], texelValues(info, t)[7]);
   EXPECT_EQ(r.readVmf(1)[3], 0.5f);
   const auto v = r.verify();
   EXPECT_TRUE(v.badChunks.empty());
@@ -96,7 +97,8 @@ TEST(BtfStore, FlippedByteIsDetected) {
     BtfReader bad(path);
     FAIL() << "no error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("header checksum mismatch"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("header checksum mismatch"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -151,14 +153,19 @@ TEST(BtfStore, KilledSimulationResumesToTheSameBytes) {
   const std::string scene = test::sourceDir() + "/resources/scenes/brick.json";
   const std::string common = " --texels 8 --dirs bonn81 --spp 2 --memory-budget 65M -q";
   std::string out;
-  ASSERT_EQ(test::runBtfsim("simulate " + scene + " -o " + (dir / "full.btf").string() + common, &out), 0) << out;
+  ASSERT_EQ(
+      test::runBtfsim("simulate " + scene + " -o " + (dir / "full.btf").string() + common, &out), 0)
+      << out;
   const std::string part = (dir / "cut.btf").string();
   // The test hook exits abruptly (no cleanup) after writing 2 chunks, like a kill.
-  const int rc = test::runBtfsim("simulate " + scene + " -o " + part + common, &out, "BTF_TEST_ABORT_AFTER_CHUNKS=2");
+  const int rc = test::runBtfsim("simulate " + scene + " -o " + part + common, &out,
+                                 "BTF_TEST_ABORT_AFTER_CHUNKS=2");
   EXPECT_EQ(rc, 75) << out;
   EXPECT_FALSE(std::filesystem::exists(part));
   ASSERT_TRUE(std::filesystem::exists(part + ".partial"));
-  ASSERT_EQ(test::runBtfsim("simulate " + scene + " -o " + part + common + " --resume --json", &out), 0) << out;
+  ASSERT_EQ(
+      test::runBtfsim("simulate " + scene + " -o " + part + common + " --resume --json", &out), 0)
+      << out;
   EXPECT_NE(out.find("\"chunks_resumed\": 2"), std::string::npos) << out;
   EXPECT_FALSE(std::filesystem::exists(part + ".partial"));
   EXPECT_EQ(test::readFile(part), test::readFile(dir / "full.btf"));

@@ -13,8 +13,9 @@ namespace btf {
 namespace {
 
 TileGeometry geometryOf(const std::string& parts, const std::string& tile = "[1, 1]") {
-  return buildTileGeometry(test::sceneFromJson(R"({"btfscene": 1, "tile": {"size": )" + tile +
-                                               R"(}, "materials": {"m": {"type": "lambert"}}, "parts": )" + parts + "}"));
+  return buildTileGeometry(test::sceneFromJson(
+      R"({"btfscene": 1, "tile": {"size": )" + tile +
+      R"(}, "materials": {"m": {"type": "lambert"}}, "parts": )" + parts + "}"));
 }
 
 TEST(PeriodicTracer, FlatPlaneIsHitAtTheRightDistanceFromAnywhere) {
@@ -33,12 +34,15 @@ TEST(PeriodicTracer, FlatPlaneIsHitAtTheRightDistanceFromAnywhere) {
 
 TEST(PeriodicTracer, SphereStraddlingTheCornerIsSeenFromAllFourCells) {
   // A sphere centred on the tile corner: its four quarters live in four cells.
-  const TileGeometry g = geometryOf(R"([{"type": "sphere", "material": "m", "center": [0, 0, 0], "radius": 0.3, "segments": 64}])");
+  const TileGeometry g = geometryOf(
+      R"([{"type": "sphere", "material": "m", "center": [0, 0, 0], "radius": 0.3, "segments": 64}])");
   const PeriodicTracer t(g);
-  for (DVec3 p : {DVec3(0.1, 0.1, 0), DVec3(0.9, 0.1, 0), DVec3(0.1, 0.9, 0), DVec3(0.9, 0.9, 0), DVec3(3.05, -7.05, 0)}) {
+  for (DVec3 p : {DVec3(0.1, 0.1, 0), DVec3(0.9, 0.1, 0), DVec3(0.1, 0.9, 0), DVec3(0.9, 0.9, 0),
+                  DVec3(3.05, -7.05, 0)}) {
     const RayHit h = t.intersect(p + DVec3(0, 0, 2), DVec3(0, 0, -1));
     ASSERT_TRUE(h.hit()) << p.x << "," << p.y << " t=" << h.t;
-    const double dx = p.x - std::round(p.x), dy = p.y - std::round(p.y);  // offset to the nearest corner
+    const double dx = p.x - std::round(p.x),
+                 dy = p.y - std::round(p.y);  // offset to the nearest corner
     EXPECT_NEAR(2 - h.t, std::sqrt(0.09 - dx * dx - dy * dy), 2e-3);
   }
   EXPECT_FALSE(t.intersect(DVec3(0.5, 0.5, 2), DVec3(0, 0, -1)).hit());
@@ -68,7 +72,8 @@ TEST(PeriodicTracer, RaysThroughCornersAndAlongEdgesWrapExactly) {
 }
 
 TEST(PeriodicTracer, GrazingRaysTerminateAndWrapMany) {
-  const TileGeometry g = geometryOf(R"([{"type": "sine", "material": "m", "amplitude": 0.05, "periods": [3, 2]}])");
+  const TileGeometry g =
+      geometryOf(R"([{"type": "sine", "material": "m", "amplitude": 0.05, "periods": [3, 2]}])");
   const PeriodicTracer t(g);
   const double th = deg2rad(89.9);
   int hits = 0;
@@ -91,7 +96,8 @@ TEST(PeriodicTracer, ZeroAreaTrianglesAreHarmless) {
   TileGeometry g = geometryOf(R"([{"type": "plane", "material": "m"}])");
   // Append a zero-area sliver and a point triangle by hand: the tracer must not crash or hit them.
   const uint32_t b = uint32_t(g.mesh.pos.size());
-  g.mesh.pos.insert(g.mesh.pos.end(), {Vec3(0.2f, 0.2f, 0.5f), Vec3(0.8f, 0.8f, 0.5f), Vec3(0.5f, 0.5f, 0.5f)});
+  g.mesh.pos.insert(g.mesh.pos.end(),
+                    {Vec3(0.2f, 0.2f, 0.5f), Vec3(0.8f, 0.8f, 0.5f), Vec3(0.5f, 0.5f, 0.5f)});
   g.mesh.nrm.insert(g.mesh.nrm.end(), 3, Vec3(0, 0, 1));
   g.mesh.tri.push_back({b, b + 1, b + 2});
   g.mesh.tri.push_back({b, b, b});
