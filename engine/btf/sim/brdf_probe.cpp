@@ -2,6 +2,7 @@
 #include <btf/core/rng.h>
 #include <btf/sim/brdf_probe.h>
 #include <btf/sim/hit_maps.h>
+#include <btf/sim/shading.h>
 
 #include <cmath>
 
@@ -40,15 +41,8 @@ std::vector<Rgb> averagedBrdf(const PeriodicTracer& tracer, const std::vector<Ma
             float depth;
             const RayHit hit = traceSampleRay(tracer, p0, pr.wo, &depth);
             if (!hit.hit()) continue;
-            Vec3 ng = g.faceNormal(hit.prim);
-            const float l = glm::length(ng);
-            if (!(l > 0)) continue;
-            ng /= l;
-            Vec3 nS = g.shadingNormal(hit.prim, hit.u, hit.v);
-            if (glm::dot(ng, wo) < 0) {
-              ng = -ng;
-              nS = -nS;
-            }
+            Vec3 ng, nS;
+            if (!hitNormals(g, hit.prim, hit.u, hit.v, wo, &ng, &nS)) continue;
             const float cosN = glm::dot(nS, wi);
             if (cosN <= 0 || glm::dot(ng, wi) <= 0) continue;
             const DVec3 p = p0 + double(depth) * pr.wo;

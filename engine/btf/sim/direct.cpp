@@ -1,5 +1,6 @@
 #include <btf/core/error.h>
 #include <btf/sim/direct.h>
+#include <btf/sim/shading.h>
 
 #include <algorithm>
 #include <cmath>
@@ -70,15 +71,6 @@ float DirectIllumination::shadowMapVisibility(int l, const Vec3& p, const Vec3& 
          (lit(i0, j1) * (1 - tx) + lit(i1, j1) * tx) * ty;
 }
 
-namespace {
-struct ShadingPoint {
-  Vec3 p, n, ng;
-  Frame frame;
-  Vec3 wo;
-  const Material* mat;
-};
-}  // namespace
-
 int64_t DirectIllumination::evalTexelView(int i, int j, int view, float* out) const {
   const int nL = m_dirs.size();
   std::fill(out, out + size_t(nL) * 3, 0.0f);
@@ -94,15 +86,9 @@ int64_t DirectIllumination::evalTexelView(int i, int j, int view, float* out) co
     const int a = int(si % g.su()), b = int(si / g.su());
     const DVec3 p0 = g.position(a, b);
     const Vec3 p = Vec3(p0 + double(m_maps.depth(view, si)) * wv);
-    Vec3 ng = m_geom.faceNormal(prim);
-    const float lng = glm::length(ng);
-    if (!(lng > 0)) continue;  // zero-area triangle: contributes nothing
-    ng /= lng;
-    Vec3 n = m_geom.shadingNormal(prim, m_maps.bu(view, si), m_maps.bv(view, si));
-    if (glm::dot(ng, Vec3(wv)) < 0) {  // two-sided surfaces: shade the side that is seen
-      ng = -ng;
-      n = -n;
-    }
+    Vec3 ng, n;
+    if (!hitNormals(m_geom, prim, m_maps.bu(view, si), m_maps.bv(view, si), Vec3(wv), &ng, &n))
+      continue;
     const Frame frame = Frame::fromNormal(n);
     const Vec3 wo = frame.toLocal(Vec3(wv));
     const Material& mat = m_materials[m_geom.triMaterial[prim]];
@@ -142,15 +128,9 @@ Rgb DirectIllumination::evalTexelViewLight(int i, int j, int view, const DVec3& 
     if (prim == kNoHit) continue;
     const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
     const DVec3 p = p0 + double(m_maps.depth(view, si)) * wv;
-    Vec3 ng = m_geom.faceNormal(prim);
-    const float lng = glm::length(ng);
-    if (!(lng > 0)) continue;
-    ng /= lng;
-    Vec3 n = m_geom.shadingNormal(prim, m_maps.bu(view, si), m_maps.bv(view, si));
-    if (glm::dot(ng, Vec3(wv)) < 0) {
-      ng = -ng;
-      n = -n;
-    }
+    Vec3 ng, n;
+    if (!hitNormals(m_geom, prim, m_maps.bu(view, si), m_maps.bv(view, si), Vec3(wv), &ng, &n))
+      continue;
     const float cosN = glm::dot(n, wl);
     if (cosN <= 0 || glm::dot(ng, wl) <= 0) continue;
     if (m_tracer.occluded(p + m_tracer.epsilon() * DVec3(ng), light)) continue;
