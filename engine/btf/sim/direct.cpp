@@ -92,6 +92,7 @@ int64_t DirectIllumination::evalTexelView(int i, int j, int view, float* out) co
     const Frame frame = Frame::fromNormal(n);
     const Vec3 wo = frame.toLocal(Vec3(wv));
     const Material& mat = m_materials[m_geom.triMaterial[prim]];
+    const bool lambert = mat.type == BrdfType::Lambert;
     const DVec3 origin = DVec3(p) + m_tracer.epsilon() * DVec3(ng);
     for (int l = 0; l < nL; ++l) {
       const LightInfo& L = m_lights[size_t(l)];
@@ -104,7 +105,8 @@ int64_t DirectIllumination::evalTexelView(int i, int j, int view, float* out) co
         vis = m_tracer.occluded(origin, DVec3(L.w)) ? 0.0f : 1.0f;
       }
       if (vis <= 0) continue;
-      const Rgb f = evalBrdf(mat, frame.toLocal(L.w), wo);
+      // Lambert needs no local frame: its value is constant.
+      const Rgb f = lambert ? mat.kdOverPi : evalBrdf(mat, frame.toLocal(L.w), wo);
       const float k = cosN * L.invCos * vis * invK2;
       out[3 * l] += f.x * k;
       out[3 * l + 1] += f.y * k;
