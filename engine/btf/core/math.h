@@ -35,6 +35,7 @@ inline bool finite3(const Vec3& v) {
 struct Frame {
   Vec3 t, b, n;
   Vec3 toLocal(const Vec3& v) const { return {glm::dot(v, t), glm::dot(v, b), glm::dot(v, n)}; }
+  Vec3 toWorld(const Vec3& v) const { return v.x * t + v.y * b + v.z * n; }
   /// Frame around n whose tangent is the projection of `hint` (falls back to y, then any).
   static Frame fromNormal(const Vec3& n, const Vec3& hint = Vec3(1, 0, 0)) {
     Vec3 t = hint - n * glm::dot(n, hint);

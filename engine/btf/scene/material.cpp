@@ -166,3 +166,155 @@ Rgb evalBrdf(const Material& m, const Vec3& wi, const Vec3& wo) {
 }
 
 }  // namespace btf
+
+namespace btf {
+
+namespace {
+
+float luminance(const Rgb& c) {
+  return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
+}
+
+Vec3 reflect(const Vec3& wo, const Vec3& h) {
+  return 2.0f * glm::dot(wo, h) * h - wo;
+}
+
+// Half vector in the local frame from (cos θh, φh).
+Vec3 halfFromAngles(float cosT, float phi) {
+  const float s = std::sqrt(std::max(0.0f, 1 - cosT * cosT));
+  return {s * std::cos(phi), s * std::sin(phi), cosT};
+}
+
+// Density of the glossy lobe's half-vector sampler, in solid angle of h.
+float pdfHalf(const Material& m, const Vec3& h) {
+  if (h.z <= 0) return 0;
+  switch (m.type) {
+    case BrdfType::Lambert:
+      return 0;
+    case BrdfType::BlinnPhong:
+      return (m.exponent + 1) * (0.5f * kInvPiF) * std::pow(h.z, m.exponent);
+    case BrdfType::CookTorrance:
+      return microfacetD(m.dist, m.alpha, h.z) * h.z;
+    case BrdfType::Ward: {
+      const float c2 = h.z * h.z;
+      const float e =
+          -((h.x * h.x) / (m.alphaX * m.alphaX) + (h.y * h.y) / (m.alphaY * m.alphaY)) / c2;
+      return std::exp(e) / (kPiF * m.alphaX * m.alphaY * c2 * h.z);
+    }
+  }
+  return 0;
+}
+
+Vec3 sampleHalf(const Material& m, float u1, float u2) {
+  const float phi = 2 * kPiF * u2;
+  switch (m.type) {
+    case BrdfType::Lambert:
+      return {0, 0, 1};
+    case BrdfType::BlinnPhong:
+      return halfFromAngles(std::pow(u1, 1.0f / (m.exponent + 1)), phi);
+    case BrdfType::CookTorrance: {
+      const float a2 = m.alpha * m.alpha;
+      const float tan2 = m.dist == Distribution::GGX ? a2 * u1 / std::max(1 - u1, 1e-7f)
+                                                     : -a2 * std::log(std::max(1 - u1, 1e-7f));
+      return halfFromAngles(1.0f / std::sqrt(1 + tan2), phi);
+    }
+    case BrdfType::Ward: {
+      // Walter 2005: φh = atan(αy/αx · tan 2πu), tan²θh = −ln u / (cos²φ/αx² + sin²φ/αy²).
+      const float ph = std::atan2(m.alphaY * std::sin(phi), m.alphaX * std::cos(phi));
+      const float c = std::cos(ph), s = std::sin(ph);
+      const float denom = c * c / (m.alphaX * m.alphaX) + s * s / (m.alphaY * m.alphaY);
+      const float tan2 = -std::log(std::max(1 - u1, 1e-7f)) / denom;
+      return halfFromAngles(1.0f / std::sqrt(1 + tan2), ph);
+    }
+  }
+  return {0, 0, 1};
+}
+
+}  // namespace
+
+Rgb evalGlossy(const Material& m, const Vec3& wi, const Vec3& wo) {
+  if (m.type == BrdfType::Lambert || wi.z <= 0 || wo.z <= 0) return Rgb(0);
+  return glm::max(evalBrdf(m, wi, wo) - m.kdOverPi, Rgb(0));
+}
+
+float diffuseLobeWeight(const Material& m) {
+  if (m.type == BrdfType::Lambert) return 1;
+  const float d = luminance(m.kdOverPi) * kPiF, s = luminance(m.ks);
+  if (s <= 0) return 1;
+  if (d <= 0) return 0;
+  // Keep both techniques alive so that neither lobe is ever undersampled badly.
+  return std::clamp(d / (d + s), 0.1f, 0.9f);
+}
+
+float pdfGlossyLobe(const Material& m, const Vec3& wo, const Vec3& wi) {
+  if (m.type == BrdfType::Lambert || wi.z <= 0 || wo.z <= 0) return 0;
+  Vec3 h = wi + wo;
+  const float l = glm::dot(h, h);
+  if (l <= 1e-20f) return 0;
+  h *= 1.0f / std::sqrt(l);
+  const float woh = glm::dot(wo, h);
+  if (woh <= 0) return 0;
+  return pdfHalf(m, h) / (4 * woh);
+}
+
+float pdfBrdf(const Material& m, const Vec3& wo, const Vec3& wi) {
+  if (wi.z <= 0 || wo.z <= 0) return 0;
+  const float pd = diffuseLobeWeight(m);
+  float p = pd * wi.z * kInvPiF;
+  if (pd < 1) p += (1 - pd) * pdfGlossyLobe(m, wo, wi);
+  return p;
+}
+
+BrdfSample sampleBrdf(const Material& m, const Vec3& wo, float u0, float u1, float u2) {
+  BrdfSample s;
+  if (wo.z <= 0) return s;
+  const float pd = diffuseLobeWeight(m);
+  if (u0 < pd) {
+    // Cosine-weighted hemisphere (Malley: concentric-free polar mapping is enough here).
+    const float r = std::sqrt(u1), phi = 2 * kPiF * u2;
+    s.wi = {r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0f, 1 - u1))};
+  } else {
+    const Vec3 h = sampleHalf(m, u1, u2);
+    if (glm::dot(wo, h) <= 0) return s;
+    s.wi = reflect(wo, h);
+  }
+  if (s.wi.z <= 0) return s;
+  s.pdf = pdfBrdf(m, wo, s.wi);
+  return s;
+}
+
+float directionalAlbedo(const Material& m, const Vec3& wo, int n) {
+  if (wo.z <= 0) return 0;
+  Rgb sum(0);
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b)
+      for (int lobe = 0; lobe < 2; ++lobe) {
+        // Stratified over (u1, u2), both lobe choices evaluated with their mixture weight.
+        const float pd = diffuseLobeWeight(m);
+        const float w = lobe == 0 ? pd : 1 - pd;
+        if (w <= 0) continue;
+        const BrdfSample s =
+            sampleBrdf(m, wo, lobe == 0 ? 0.0f : 1.0f, (a + 0.5f) / n, (b + 0.5f) / n);
+        if (s.pdf <= 0) continue;
+        // Sample drawn from lobe `lobe` with probability w; the mixture estimator f·cos/pdf
+        // already accounts for both lobes, so weight by w.
+        sum += w * evalBrdf(m, s.wi, wo) * (s.wi.z / s.pdf);
+      }
+  sum /= float(n) * float(n);
+  return std::max(sum.x, std::max(sum.y, sum.z));
+}
+
+float albedoBound(const Material& m) {
+  if (m.type == BrdfType::Lambert) {
+    const Rgb a = m.kdOverPi * kPiF;
+    return std::max(a.x, std::max(a.y, a.z));
+  }
+  float best = 0;
+  for (int k = 0; k <= 12; ++k) {
+    const float t = float(k) / 12.0f * 1.5533f;  // up to 89°
+    best = std::max(best, directionalAlbedo(m, Vec3(std::sin(t), 0, std::cos(t)), 48));
+  }
+  return best * 1.05f;
+}
+
+}  // namespace btf

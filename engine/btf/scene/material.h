@@ -34,6 +34,31 @@ std::vector<Material> compileMaterials(const Scene& scene);
 /// below the surface. Finite for every input, including grazing directions.
 Rgb evalBrdf(const Material& m, const Vec3& wi, const Vec3& wo);
 
+/// The glossy (non-Lambertian) part of f_r: evalBrdf minus the diffuse term kd/π.
+Rgb evalGlossy(const Material& m, const Vec3& wi, const Vec3& wo);
+
+/// Importance sampling of f_r·cos for a fixed ωo (local frame): a one-sample mixture of a
+/// cosine-weighted diffuse lobe and the glossy lobe's own sampler (Blinn-Phong cosⁿ on the half
+/// vector, D(h)·cos θh for the microfacet distributions, Walter's formula for Ward), so the pdf
+/// is the mixture pdf (the balance heuristic over the two techniques).
+struct BrdfSample {
+  Vec3 wi{0, 0, 1};
+  float pdf = 0;  // solid-angle density of wi; 0 when the sample is invalid (below the surface)
+};
+/// Probability of picking the diffuse lobe (1 for Lambert, 0 when there is no diffuse term).
+float diffuseLobeWeight(const Material& m);
+BrdfSample sampleBrdf(const Material& m, const Vec3& wo, float u0, float u1, float u2);
+/// Density of sampleBrdf's output wi given wo (0 below the surface).
+float pdfBrdf(const Material& m, const Vec3& wo, const Vec3& wi);
+/// Density of the glossy lobe's sampler alone (0 for Lambert).
+float pdfGlossyLobe(const Material& m, const Vec3& wo, const Vec3& wi);
+/// Directional albedo ρ(ωo) = ∫ f_r(ωi, ωo) cos θi dωi (max over RGB), by importance sampling
+/// with n×n stratified samples (deterministic).
+float directionalAlbedo(const Material& m, const Vec3& wo, int n = 64);
+/// An upper bound of the directional albedo over all ωo (max over a θ sweep, plus 5 %): the ρ_max
+/// of the effect planner's energy bound.
+float albedoBound(const Material& m);
+
 // Building blocks, exposed for tests and the analytic references.
 float microfacetD(Distribution d, float alpha, float cosThetaH);
 float smithG1(Distribution d, float alpha, float cosTheta);

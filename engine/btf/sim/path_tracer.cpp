@@ -1,0 +1,129 @@
+#include <btf/core/error.h>
+#include <btf/sim/path_tracer.h>
+#include <btf/sim/shading.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace btf {
+
+void tracePath(const PeriodicTracer& tracer, const std::vector<Material>& materials,
+               const DVec3& p0, const DVec3& wo, const DVec3* lights, int nLights,
+               const PathSettings& s, Rng& rng, float weight, Rgb* out) {
+  const TileGeometry& g = tracer.geometry();
+  const double eps = tracer.epsilon();
+  const int limit = s.maxBounces > 0 ? std::min(s.maxBounces, s.hardLimit) : s.hardLimit;
+  // First vertex: the texel sample's ray, computed exactly as the hit maps do so that a
+  // direct-only path reproduces the direct simulator.
+  float depth;
+  RayHit hit = traceSampleRay(tracer, p0, wo, &depth);
+  if (!hit.hit()) return;
+  Vec3 p = Vec3(p0 + double(depth) * wo);
+  Vec3 toViewer = Vec3(wo);
+  Rgb beta(weight);
+  for (int bounce = 1;; ++bounce) {
+    Vec3 ng, n;
+    if (!hitNormals(g, hit.prim, hit.u, hit.v, toViewer, &ng, &n)) return;
+    const Material& mat = materials[g.triMaterial[hit.prim]];
+    const Frame frame = Frame::fromNormal(n);
+    const Vec3 woL = frame.toLocal(toViewer);
+    const DVec3 origin = DVec3(p) + eps * DVec3(ng);
+    for (int l = 0; l < nLights; ++l) {
+      const Vec3 wl(lights[l]);
+      const float cosN = glm::dot(n, wl);
+      if (cosN <= 0 || glm::dot(ng, wl) <= 0) continue;
+      if (tracer.occluded(origin, DVec3(wl))) continue;
+      const Rgb f = evalBrdf(mat, frame.toLocal(wl), woL);
+      out[l] += beta * f * (cosN / float(std::max(lights[l].z, 1e-7)));
+    }
+    if (bounce >= limit) return;
+    const float u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
+    const BrdfSample bs = sampleBrdf(mat, woL, u0, u1, u2);
+    if (!(bs.pdf > 0)) return;
+    const Vec3 wiW = frame.toWorld(bs.wi);
+    if (glm::dot(ng, wiW) <= 0) return;  // shading normal sent the path into the surface
+    beta *= evalBrdf(mat, bs.wi, woL) * (bs.wi.z / bs.pdf);
+    if (bounce >= s.rrDepth) {
+      const float q = std::min(0.95f, std::max(beta.x, std::max(beta.y, beta.z)));
+      if (!(q > 0) || rng.uniform() >= q) return;
+      beta /= q;
+    }
+    if (!(beta.x > 0 || beta.y > 0 || beta.z > 0)) return;
+    const DVec3 dir = glm::normalize(DVec3(wiW));
+    hit = tracer.intersect(origin, dir);
+    if (!hit.hit()) return;
+    p = Vec3(origin + hit.t * dir);
+    toViewer = -Vec3(dir);
+  }
+}
+
+std::vector<Rgb> pathTracedBrdf(const PeriodicTracer& tracer,
+                                const std::vector<Material>& materials,
+                                const std::vector<DirectionPair>& pairs, int n, int paths,
+                                const PathSettings& settings, const CancelToken* cancel) {
+  if (n < 1) throw Error("samples per axis must be >= 1");
+  if (paths < 1) throw Error("paths per sample must be >= 1");
+  const TileGeometry& g = tracer.geometry();
+  std::vector<Rgb> partials(pairs.size() * size_t(n), Rgb(0));
+  parallelForChunks(
+      int64_t(pairs.size()) * n, 1,
+      [&](int64_t b, int64_t e) {
+        for (int64_t k = b; k < e; ++k) {
+          const size_t pi = size_t(k / n);
+          const int row = int(k % n);
+          const DirectionPair& pr = pairs[pi];
+          Rgb sum(0);
+          for (int a = 0; a < n; ++a)
+            for (int q = 0; q < paths; ++q) {
+              // Path 0 uses averagedBrdf's positions; further paths are re-jittered.
+              const uint64_t h = hashKeys(settings.seed, uint64_t(a), uint64_t(row), 0xb3d + q);
+              const DVec3 p0((a + uniformFloat(h)) * g.Lx / n,
+                             (row + uniformFloat(mix64(h))) * g.Ly / n, 0);
+              Rng rng(hashKeys(settings.seed ^ 0x9a7e, pi, uint64_t(row) * uint64_t(n) + a, q));
+              tracePath(tracer, materials, p0, pr.wo, &pr.wi, 1, settings, rng, 1.0f, &sum);
+            }
+          partials[size_t(k)] = sum;
+        }
+      },
+      cancel);
+  std::vector<Rgb> out(pairs.size(), Rgb(0));
+  const float inv = 1.0f / (float(n) * float(n) * float(paths));
+  for (size_t pi = 0; pi < pairs.size(); ++pi) {
+    Rgb acc(0);
+    for (int r = 0; r < n; ++r) acc += partials[pi * size_t(n) + size_t(r)];
+    out[pi] = acc * inv;
+  }
+  return out;
+}
+
+std::vector<Rgb> pathTracedTexels(const PeriodicTracer& tracer,
+                                  const std::vector<Material>& materials, const SampleGrid& grid,
+                                  const DVec3& wo, const std::vector<DVec3>& lights, int paths,
+                                  const PathSettings& settings, const CancelToken* cancel) {
+  if (paths < 1) throw Error("paths per sample must be >= 1");
+  const int nL = int(lights.size());
+  const int64_t texels = int64_t(grid.nu) * grid.nv;
+  std::vector<Rgb> out(size_t(texels) * size_t(nL), Rgb(0));
+  const int K2 = grid.spp * grid.spp;
+  const float w = 1.0f / (float(K2) * float(paths));
+  parallelForChunks(
+      texels, 4,
+      [&](int64_t b, int64_t e) {
+        for (int64_t t = b; t < e; ++t) {
+          const int i = int(t % grid.nu), j = int(t / grid.nu);
+          for (int s = 0; s < K2; ++s) {
+            const int64_t si = grid.sampleIndex(i, j, s);
+            const DVec3 p0 = grid.position(int(si % grid.su()), int(si / grid.su()));
+            for (int q = 0; q < paths; ++q) {
+              Rng rng(hashKeys(settings.seed ^ 0x7e11, uint64_t(si), uint64_t(q)));
+              tracePath(tracer, materials, p0, wo, lights.data(), nL, settings, rng, w,
+                        &out[size_t(t) * size_t(nL)]);
+            }
+          }
+        }
+      },
+      cancel);
+  return out;
+}
+
+}  // namespace btf
