@@ -7,6 +7,22 @@
 
 #include "commands.h"
 
+namespace {
+void addEffectOptions(CLI::App* c, btf::cli::EffectArgs& e) {
+  c->add_option("--method", e.method, "network (direct + point-network GI) or pt (path traced)");
+  c->add_option("--self-shadowing", e.selfShadowing, "auto, on or off");
+  c->add_option("--interreflection", e.interreflection, "auto, on or off");
+  c->add_option("--bounces", e.bounces, "P: reflections per path (1 = direct only; 0 = plan)");
+  c->add_option("--epsilon", e.epsilon, "planner: energy fraction below which an order is dropped");
+  c->add_option("--colour", e.colour, "auto, on (RGB) or off (one channel, grey scenes)");
+  c->add_option("--vmf", e.vmf, "auto, on or off: store the visibility map");
+  c->add_option("--network-voxels", e.networkVoxels, "network density (0 = one per texel)");
+  c->add_option("--links", e.links, "network links per point");
+  c->add_option("--gather", e.gather, "N1: network points per direct hit");
+  c->add_option("--paths", e.paths, "--method pt: paths per texel sample");
+}
+}  // namespace
+
 int main(int argc, char** argv) {
   using namespace btf::cli;
   CLI::App app{"btfsim — simulate Bidirectional Texture Functions from micro-geometry"};
@@ -25,6 +41,7 @@ int main(int argc, char** argv) {
   s->add_option("--threads", sim.threads, "worker threads (default: all cores)");
   s->add_option("--seed", sim.seed, "jitter seed");
   s->add_option("--memory-budget", sim.memoryBudget, "memory budget, e.g. 4G, 512M");
+  addEffectOptions(s, sim.effects);
   s->add_flag("--resume", sim.resume, "continue an interrupted run from OUTPUT.partial");
   s->add_flag("--json", sim.json, "print a JSON summary on stdout");
   s->add_flag("-q,--quiet", sim.quiet, "no progress bar");
@@ -35,6 +52,9 @@ int main(int argc, char** argv) {
   b->add_option("--pair", br.pairs, "θi,φi,θo,φo in degrees (repeatable)");
   b->add_option("--pairs", br.pairsFile, "CSV file of θi,φi,θo,φo lines");
   b->add_option("--spp", br.samples, "samples per axis over the tile (N×N rays per pair)");
+  b->add_option("--method", br.method, "pt (path traced, every effect) or direct");
+  b->add_option("--bounces", br.bounces, "pt: reflections per path (0 = unbounded)");
+  b->add_option("--paths", br.paths, "pt: paths per sample position");
   b->add_option("--threads", br.threads, "worker threads");
   b->add_flag("--json", br.json, "JSON output");
 
@@ -65,6 +85,36 @@ int main(int argc, char** argv) {
   bn->add_option("--repeat", be.repeat, "runs per mode (the median is reported)");
   bn->add_flag("--json", be.json, "JSON output");
 
+  PlanArgs pa;
+  auto* pl =
+      app.add_subcommand("plan", "print the effect plan of a scene with reasons and savings");
+  pl->add_option("scene", pa.scene, "scene file")->required();
+  pl->add_option("--dirs", pa.dirs, "direction set");
+  pl->add_option("--texels", pa.texels, "texels");
+  pl->add_option("--spp", pa.spp, "K");
+  pl->add_option("--shadows", pa.shadows, "map or rays");
+  pl->add_option("--threads", pa.threads, "worker threads");
+  addEffectOptions(pl, pa.effects);
+  pl->add_flag("--json", pa.json, "JSON output");
+
+  StudyArgs st;
+  auto* sy = app.add_subcommand("study", "accuracy vs time: sweep the knobs against a path tracer");
+  sy->add_option("scene", st.scene, "scene file")->required();
+  sy->add_option("-o,--output", st.output, "output folder (study.csv, study.md, study.svg)")
+      ->required();
+  sy->add_option("--texels", st.texels, "texels of every run");
+  sy->add_option("--dirs", st.dirs, "direction sets, comma-separated (first = base)");
+  sy->add_option("--spp", st.spp, "K values");
+  sy->add_option("--shadows", st.shadows, "shadow modes: map, rays");
+  sy->add_option("--network-voxels", st.voxels, "network densities (0 = one per texel)");
+  sy->add_option("--gather", st.gather, "N1 values");
+  sy->add_option("--links", st.links, "links per network point");
+  sy->add_option("--bounces", st.bounces, "path lengths P (1 = direct only)");
+  sy->add_flag("--grid", st.grid, "full product of the lists instead of one knob at a time");
+  sy->add_option("--reference-spp", st.referenceSpp, "reference paths per axis per probe pair");
+  sy->add_option("--threads", st.threads, "worker threads");
+  sy->add_flag("-q,--quiet", st.quiet, "no progress bar");
+
   std::string schemaOut;
   auto* sc = app.add_subcommand("schema", "print the scene file's JSON Schema");
   sc->add_option("-o,--output", schemaOut, "write to this file instead of stdout");
@@ -85,6 +135,8 @@ int main(int argc, char** argv) {
     if (*c) return slice(sl);
     if (*i) return info(in);
     if (*bn) return bench(be);
+    if (*pl) return plan(pa);
+    if (*sy) return study(st);
     if (*sc) return schema(schemaOut);
     if (*sd) return sceneDoc(docOut);
   } catch (const btf::Error& e) {

@@ -6,7 +6,9 @@
 #include <btf/io/image_io.h>
 #include <btf/scene/scene.h>
 #include <btf/sim/brdf_probe.h>
+#include <btf/sim/path_tracer.h>
 #include <btf/sim/simulator.h>
+#include <btf/sim/study.h>
 #include <btf/store/btf_store.h>
 
 #include <algorithm>
@@ -45,7 +47,35 @@ void parseAnglePair(const std::string& s, const std::string& what, double* theta
     throw Error("invalid " + what + " '" + s + "': θ must be in [0, 90) degrees");
 }
 
+void applyEffects(const EffectArgs& e, SimOptions* o) {
+  o->method = e.method;
+  o->plan.selfShadowing = parseToggle(e.selfShadowing, "--self-shadowing");
+  o->plan.interreflection = parseToggle(e.interreflection, "--interreflection");
+  o->plan.colour = parseToggle(e.colour, "--colour");
+  o->plan.vmf = parseToggle(e.vmf, "--vmf");
+  if (e.bounces < 0 || e.bounces > 64) throw Error("invalid --bounces: must be 1..64 (0 = plan)");
+  o->plan.bounces = e.bounces;
+  if (e.bounces > 1 && o->plan.interreflection == Toggle::Auto)
+    o->plan.interreflection = Toggle::On;
+  if (e.bounces == 1) o->plan.interreflection = Toggle::Off;
+  if (!(e.epsilon > 0 && e.epsilon < 1)) throw Error("invalid --epsilon: must be in (0, 1)");
+  o->plan.epsilon = e.epsilon;
+  if (e.networkVoxels != 0 && (e.networkVoxels < 2 || e.networkVoxels > 1024))
+    throw Error("invalid --network-voxels: must be 2..1024 (0 = one per texel)");
+  o->network.voxels = e.networkVoxels;
+  o->network.links = e.links;
+  o->network.gather = e.gather;
+  o->ptPaths = e.paths;
+}
+
 namespace {
+
+void printPlan(const EffectPlan& p, FILE* out) {
+  for (const auto& d : p.decisions)
+    std::fprintf(out, "  %-16s %-4s %s%s%s\n", d.effect.c_str(), d.value.c_str(),
+                 d.forced ? "[forced] " : "", d.reason.c_str(),
+                 d.secondsSaved > 0 ? (" — saves ~" + formatSeconds(d.secondsSaved)).c_str() : "");
+}
 
 void printEstimate(const SimEstimate& e, const SimOptions& o) {
   std::fprintf(
@@ -70,6 +100,7 @@ int simulate(const SimulateArgs& a) {
   if (!a.shadows.empty()) o.shadows = parseShadowMode(a.shadows);
   if (a.seed >= 0) o.seed = uint64_t(a.seed);
   if (a.threads < 0) throw Error("invalid --threads: must be >= 0");
+  applyEffects(a.effects, &o);
   o.shadowBias = float(a.bias);
   o.memoryBudget = parseBytes(a.memoryBudget);
   o.resume = a.resume;
@@ -77,6 +108,10 @@ int simulate(const SimulateArgs& a) {
   ThreadLimit limit(a.threads);
   SimulationJob job(scene, o);
   const SimEstimate est = job.estimate(a.output);
+  if (!a.quiet) {
+    std::fprintf(stderr, "effect plan (%s):\n", o.method.c_str());
+    printPlan(job.plan(), stderr);
+  }
   printEstimate(est, o);
   if (!est.refusal.empty()) throw Error("refusing to start: " + est.refusal);
   const SimReport r = job.run(a.output, est);
@@ -91,6 +126,14 @@ int simulate(const SimulateArgs& a) {
     j["direction_count"] = job.directions().size();
     j["spp"] = o.spp;
     j["shadows"] = shadowModeName(o.shadows);
+    j["method"] = o.method;
+    j["plan"] = json::parse(job.plan().toJson());
+    j["network_points"] = r.networkPoints;
+    j["network_links"] = r.networkLinks;
+    j["precompute_seconds"] = r.precomputeSeconds;
+    j["render_seconds"] = r.renderSeconds;
+    j["network_seconds"] = r.networkSeconds;
+    j["network_light_seconds"] = r.lightSeconds;
     j["threads"] = est.threads;
     j["wall_seconds"] = r.wallSeconds;
     j["hit_map_seconds"] = r.hitMapSeconds;
@@ -116,6 +159,18 @@ int simulate(const SimulateArgs& a) {
                 formatSeconds(r.wallSeconds).c_str(), formatSeconds(r.hitMapSeconds).c_str(),
                 rayRate / 1e6, formatSeconds(r.evalSeconds).c_str(), evalRate / 1e6,
                 formatSeconds(r.writeSeconds).c_str());
+    const EffectPlan& pl = job.plan();
+    std::printf(
+        "  effects: self-shadowing %s, inter-reflection %s (P = %d), %d channel(s), VMF %s\n",
+        pl.selfShadowing ? "on" : "off", pl.interreflection ? "on" : "off", pl.bounces, pl.channels,
+        pl.vmf ? "on" : "off");
+    if (r.networkPoints)
+      std::printf(
+          "  precompute %s (network %s: %zu points, %zu links; hit maps %s), render %s "
+          "(network light %s)\n",
+          formatSeconds(r.precomputeSeconds).c_str(), formatSeconds(r.networkSeconds).c_str(),
+          r.networkPoints, r.networkLinks, formatSeconds(r.hitMapSeconds).c_str(),
+          formatSeconds(r.renderSeconds).c_str(), formatSeconds(r.lightSeconds).c_str());
     std::printf("  peak memory %s; chunks %d (%d resumed)\n",
                 formatBytes(double(r.peakRssBytes)).c_str(), r.chunks, r.chunksResumed);
   }
@@ -170,7 +225,19 @@ int brdf(const BrdfArgs& a) {
   ThreadLimit limit(a.threads);
   SimOptions o = optionsFromScene(scene);
   SimulationJob job(scene, o);
-  const auto vals = averagedBrdf(job.tracer(), job.materials(), pairs, a.samples, o.seed);
+  if (a.method != "pt" && a.method != "direct")
+    throw Error("unknown --method '" + a.method + "' (expected pt or direct)");
+  if (a.bounces < 0 || a.bounces > 1024) throw Error("invalid --bounces: must be 0..1024");
+  if (a.paths < 1 || a.paths > 65536) throw Error("invalid --paths: must be 1..65536");
+  std::vector<Rgb> vals;
+  if (a.method == "direct") {
+    vals = averagedBrdf(job.tracer(), job.materials(), pairs, a.samples, o.seed);
+  } else {
+    PathSettings ps;
+    ps.maxBounces = a.bounces;
+    ps.seed = o.seed;
+    vals = pathTracedBrdf(job.tracer(), job.materials(), pairs, a.samples, a.paths, ps);
+  }
   if (a.json) {
     json arr = json::array();
     for (size_t k = 0; k < vals.size(); ++k)
@@ -181,7 +248,9 @@ int brdf(const BrdfArgs& a) {
                      {"abrdf", {vals[k].x, vals[k].y, vals[k].z}}});
     json j;
     j["scene"] = scene.name;
-    j["samples"] = a.samples * a.samples;
+    j["method"] = a.method;
+    j["bounces"] = a.bounces;
+    j["samples"] = a.samples * a.samples * (a.method == "pt" ? a.paths : 1);
     j["pairs"] = arr;
     std::cout << j.dump(2) << std::endl;
   } else {
@@ -402,6 +471,127 @@ int schema(const std::string& output) {
 }
 int sceneDoc(const std::string& output) {
   return writeText(sceneParamsMarkdown(), output);
+}
+
+int plan(const PlanArgs& a) {
+  const Scene scene = loadScene(a.scene);
+  SimOptions o = optionsFromScene(scene);
+  if (!a.texels.empty()) parseTexels(a.texels, &o.nu, &o.nv);
+  if (!a.dirs.empty()) o.directions = a.dirs;
+  if (a.spp != 0) o.spp = a.spp;
+  if (!a.shadows.empty()) o.shadows = parseShadowMode(a.shadows);
+  applyEffects(a.effects, &o);
+  o.progress = false;
+  ThreadLimit limit(a.threads);
+  SimulationJob job(scene, o);
+  const SimEstimate est = job.estimate("");
+  const EffectPlan& p = job.plan();
+  if (a.json) {
+    json j = json::parse(p.toJson());
+    j["scene"] = scene.name;
+    j["method"] = o.method;
+    j["texels"] = {o.nu, o.nv};
+    j["directions"] = job.directions().name();
+    j["estimate"]["seconds"] = est.seconds;
+    j["estimate"]["hit_map_seconds"] = est.hitMapSeconds;
+    j["estimate"]["abrdf_seconds"] = est.evalSeconds;
+    j["estimate"]["network_light_seconds"] = est.lightSeconds;
+    j["estimate"]["gather_seconds"] = est.gatherSeconds;
+    j["estimate"]["memory_bytes"] = est.memoryBytes;
+    j["estimate"]["network_bytes"] = est.networkBytes;
+    if (const PointNetwork* n = job.network()) {
+      j["network"]["points"] = n->points().size();
+      j["network"]["links"] = n->links().size();
+      j["network"]["voxels"] = n->settings().voxels;
+      j["network"]["build_seconds"] = n->buildSeconds();
+    }
+    std::cout << j.dump(2) << std::endl;
+    return 0;
+  }
+  std::printf("effect plan for %s (%dx%d texels, %s, %d directions, method %s):\n",
+              scene.name.c_str(), o.nu, o.nv, job.directions().name().c_str(),
+              job.directions().size(), o.method.c_str());
+  printPlan(p, stdout);
+  std::printf(
+      "analysis: %s; ρ_max %.3g; α max %.3g, mean %.3g; %lld of %lld occlusion probes "
+      "occluded\n",
+      p.flat ? "flat tile" : "relief", p.rhoMax, p.alphaMax, p.alphaMean,
+      (long long)p.occludedTests, (long long)p.occlusionTests);
+  if (const PointNetwork* n = job.network())
+    std::printf("point network: %zu points, %zu links (%d voxels per side), built in %s\n",
+                n->points().size(), n->links().size(), n->settings().voxels,
+                formatSeconds(n->buildSeconds()).c_str());
+  std::printf(
+      "estimate: %s (hit maps %s, aBRDF %s of which final gather %s, network light %s) on "
+      "%d thread(s); memory %s\n",
+      formatSeconds(est.seconds).c_str(), formatSeconds(est.hitMapSeconds).c_str(),
+      formatSeconds(est.evalSeconds).c_str(), formatSeconds(est.gatherSeconds).c_str(),
+      formatSeconds(est.lightSeconds).c_str(), est.threads,
+      formatBytes(double(est.memoryBytes)).c_str());
+  return 0;
+}
+
+namespace {
+std::vector<std::string> splitList(const std::string& s, const std::string& what) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, ','))
+    if (!item.empty()) out.push_back(item);
+  if (out.empty()) throw Error("empty list for " + what);
+  return out;
+}
+std::vector<int> intList(const std::string& s, const std::string& what, int lo, int hi) {
+  std::vector<int> out;
+  for (const auto& t : splitList(s, what)) {
+    char* end = nullptr;
+    const long v = std::strtol(t.c_str(), &end, 10);
+    if (*end || v < lo || v > hi)
+      throw Error("invalid " + what + " value '" + t + "': expected an integer in " +
+                  std::to_string(lo) + ".." + std::to_string(hi));
+    out.push_back(int(v));
+  }
+  return out;
+}
+}  // namespace
+
+int study(const StudyArgs& a) {
+  const Scene scene = loadScene(a.scene);
+  StudyOptions o;
+  parseTexels(a.texels, &o.nu, &o.nv);
+  o.dirs = splitList(a.dirs, "--dirs");
+  for (const auto& d : o.dirs) DirectionSet::fromName(d);  // validate early
+  o.spp = intList(a.spp, "--spp", 1, 64);
+  for (const auto& m : splitList(a.shadows, "--shadows")) {
+    const ShadowMode sm = parseShadowMode(m);
+    if (sm == ShadowMode::None) throw Error("--shadows: use map or rays");
+    o.shadows.push_back(sm);
+  }
+  o.voxels = intList(a.voxels, "--network-voxels", 0, 1024);
+  o.gather = intList(a.gather, "--gather", 1, 16);
+  o.links = intList(a.links, "--links", 1, 256);
+  o.bounces = intList(a.bounces, "--bounces", 1, 64);
+  o.base = {o.dirs[0], o.spp[0], o.shadows[0], o.voxels[0], o.gather[0], o.links[0], o.bounces[0]};
+  o.grid = a.grid;
+  if (a.referenceSpp < 8 || a.referenceSpp > 4096)
+    throw Error("invalid --reference-spp: samples per axis must be 8..4096");
+  o.referenceSamples = a.referenceSpp;
+  o.progress = !a.quiet;
+  ThreadLimit limit(a.threads);
+  const auto configs = studyConfigs(o);
+  std::fprintf(stderr,
+               "study of %s: %zu configuration(s) at %dx%d texels, reference %d² paths per "
+               "probe pair\n",
+               scene.name.c_str(), configs.size(), o.nu, o.nv, o.referenceSamples);
+  const Study st = runStudy(scene, o);
+  writeStudy(st, a.output);
+  std::printf("%-58s %9s %11s %10s %7s\n", "configuration", "time", "probe RMSE", "image RMSE",
+              "Pareto");
+  for (const auto& r : st.results)
+    std::printf("%-58s %8.2fs %10.2f%% %9.1f%% %7s\n", r.config.label().c_str(), r.seconds,
+                100 * r.probeRelRmse, 100 * r.imageRelRmse, r.pareto ? "*" : "");
+  std::printf("wrote %s/study.csv, study.md, study.svg\n", a.output.c_str());
+  return 0;
 }
 
 }  // namespace btf::cli

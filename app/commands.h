@@ -6,8 +6,18 @@
 
 namespace btf::cli {
 
+/// Effect plan, method and point-network options shared by simulate, plan, bench and study.
+struct EffectArgs {
+  std::string method = "network";  // network | pt
+  std::string selfShadowing = "auto", interreflection = "auto", colour = "auto", vmf = "auto";
+  int bounces = 0;  // 0 = from the plan
+  double epsilon = 0.01;
+  int networkVoxels = 0, links = 16, gather = 4, paths = 16;
+};
+
 struct SimulateArgs {
   std::string scene, output;
+  EffectArgs effects;
   std::string dirs, texels, shadows, memoryBudget = "4G";
   int spp = 0, threads = 0;
   long long seed = -1;
@@ -18,6 +28,9 @@ int simulate(const SimulateArgs& a);
 
 struct BrdfArgs {
   std::string scene;
+  std::string method = "pt";       // pt (every effect) | direct (direct light and self-shadowing)
+  int bounces = 0;                 // pt: reflections per path, 0 = unbounded (Russian roulette)
+  int paths = 1;                   // pt: paths per sample position
   std::vector<std::string> pairs;  // "θi,φi,θo,φo" in degrees
   std::string pairsFile;           // CSV of the same
   int samples = 64;                // samples per axis over the tile
@@ -47,8 +60,35 @@ struct BenchArgs {
 };
 int bench(const BenchArgs& a);
 
+struct PlanArgs {
+  std::string scene, dirs, texels, shadows;
+  int spp = 0, threads = 0;
+  EffectArgs effects;
+  bool json = false;
+};
+int plan(const PlanArgs& a);
+
+struct StudyArgs {
+  std::string scene, output, texels = "32";
+  // Comma-separated values per knob; the first value of each is the base configuration.
+  std::string dirs = "bonn81,8x16,16x32", spp = "1,2", shadows = "map,rays", voxels = "0,16,64",
+              gather = "4,1,8", links = "16,8,32", bounces = "3,1,2,4";
+  bool grid = false;
+  int referenceSpp = 256, threads = 0;
+  bool quiet = false;
+};
+int study(const StudyArgs& a);
+
 int schema(const std::string& output);
 int sceneDoc(const std::string& output);
+
+}  // namespace btf::cli
+namespace btf {
+struct SimOptions;
+}
+namespace btf::cli {
+/// Applies the effect/method/network options to simulation options (validates them).
+void applyEffects(const EffectArgs& e, SimOptions* o);
 
 /// "64" → (64, 64); "64x32" → (64, 32). Throws btf::Error naming the text.
 void parseTexels(const std::string& s, int* nu, int* nv);

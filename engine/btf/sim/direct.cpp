@@ -10,10 +10,27 @@ namespace btf {
 ShadowMode parseShadowMode(const std::string& s) {
   if (s == "map") return ShadowMode::Map;
   if (s == "rays") return ShadowMode::Rays;
+  if (s == "none") return ShadowMode::None;
   throw Error("unknown shadow mode '" + s + "' (expected map or rays)");
 }
 const char* shadowModeName(ShadowMode m) {
-  return m == ShadowMode::Map ? "map" : "rays";
+  return m == ShadowMode::Map ? "map" : m == ShadowMode::Rays ? "rays" : "none";
+}
+
+float DirectIllumination::lightVisibility(int l, const Vec3& p, const Vec3& ng,
+                                          uint32_t prim) const {
+  switch (m_settings.shadows) {
+    case ShadowMode::Map:
+      return shadowMapVisibility(l, p, ng, prim);
+    case ShadowMode::Rays:
+      return m_tracer.occluded(DVec3(p) + m_tracer.epsilon() * DVec3(ng),
+                               DVec3(m_lights[size_t(l)].w))
+                 ? 0.0f
+                 : 1.0f;
+    case ShadowMode::None:
+      return 1.0f;
+  }
+  return 1.0f;
 }
 
 DirectIllumination::DirectIllumination(const PeriodicTracer& tracer,
@@ -101,8 +118,10 @@ int64_t DirectIllumination::evalTexelView(int i, int j, int view, float* out) co
       float vis;
       if (m_settings.shadows == ShadowMode::Map) {
         vis = shadowMapVisibility(l, p, ng, prim);
-      } else {
+      } else if (m_settings.shadows == ShadowMode::Rays) {
         vis = m_tracer.occluded(origin, DVec3(L.w)) ? 0.0f : 1.0f;
+      } else {
+        vis = 1.0f;
       }
       if (vis <= 0) continue;
       // Lambert needs no local frame: its value is constant.
@@ -135,7 +154,9 @@ Rgb DirectIllumination::evalTexelViewLight(int i, int j, int view, const DVec3& 
       continue;
     const float cosN = glm::dot(n, wl);
     if (cosN <= 0 || glm::dot(ng, wl) <= 0) continue;
-    if (m_tracer.occluded(p + m_tracer.epsilon() * DVec3(ng), light)) continue;
+    if (m_settings.shadows != ShadowMode::None &&
+        m_tracer.occluded(p + m_tracer.epsilon() * DVec3(ng), light))
+      continue;
     const Frame frame = Frame::fromNormal(n);
     sum += evalBrdf(m_materials[m_geom.triMaterial[prim]], frame.toLocal(wl),
                     frame.toLocal(Vec3(wv))) *

@@ -13,7 +13,7 @@
 
 namespace btf {
 
-enum class ShadowMode { Map, Rays };
+enum class ShadowMode { Map, Rays, None };  // None: no self-shadowing (the planner's choice)
 ShadowMode parseShadowMode(const std::string& s);
 const char* shadowModeName(ShadowMode m);
 
@@ -33,6 +33,11 @@ class DirectIllumination {
   /// Same, for an arbitrary light direction (unit, above the plane) — shadow rays only when the
   /// light is not in the set, since only the set's directions have shadow maps.
   Rgb evalTexelViewLight(int i, int j, int view, const DVec3& light) const;
+
+  /// Light visibility in [0, 1] of point p (on triangle prim, geometric normal ng facing the
+  /// light) for light l of the set, in the configured mode.
+  float lightVisibility(int l, const Vec3& p, const Vec3& ng, uint32_t prim) const;
+  const DirectSettings& settings() const { return m_settings; }
 
   /// Shadow-map visibility in [0, 1] of point p (on triangle `prim`, geometric normal ng) for
   /// light `l` of the set.

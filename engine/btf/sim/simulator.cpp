@@ -2,6 +2,8 @@
 #include <btf/core/hash.h>
 #include <btf/core/sysinfo.h>
 #include <btf/geometry/tile_builder.h>
+#include <btf/sim/path_tracer.h>
+#include <btf/sim/shading.h>
 #include <btf/sim/simulator.h>
 #include <tbb/global_control.h>
 #include <unistd.h>
@@ -47,6 +49,12 @@ SimulationJob::SimulationJob(const Scene& scene, SimOptions options)
     throw Error("invalid --spp " + std::to_string(m_opt.spp) + ": must be 1..64");
   if (!(m_opt.shadowBias >= 0) || !std::isfinite(m_opt.shadowBias))
     throw Error("shadow bias must be a finite number >= 0");
+  if (m_opt.method != "network" && m_opt.method != "pt")
+    throw Error("unknown --method '" + m_opt.method + "' (expected network or pt)");
+  if (m_opt.ptPaths < 1 || m_opt.ptPaths > 65536)
+    throw Error("invalid --paths " + std::to_string(m_opt.ptPaths) + ": must be 1..65536");
+  if (m_opt.shadows == ShadowMode::None)
+    throw Error("shadow mode 'none' is the planner's choice: use --self-shadowing off");
   enableFlushToZeroOnWorkers();
   m_dirs = DirectionSet::fromName(m_opt.directions);
   m_geom = buildTileGeometry(m_scene);
@@ -60,6 +68,39 @@ std::string SimulationJob::sceneHash() const {
   return hex64(checksum64(sceneToJson(m_scene), m_geom.checksum()));
 }
 
+NetworkSettings SimulationJob::networkSettings() const {
+  NetworkSettings n = m_opt.network;
+  if (n.voxels == 0) n.voxels = std::clamp(std::max(m_opt.nu, m_opt.nv), 16, 128);
+  n.seed = m_opt.seed;
+  return n;
+}
+
+const EffectPlan& SimulationJob::plan() const {
+  if (!m_plan) {
+    if (m_opt.plan.interreflection != Toggle::Off) {
+      m_network = std::make_unique<PointNetwork>();
+      std::unique_ptr<ProgressReporter> pr;
+      m_network->build(*m_tracer, networkSettings(), nullptr);
+    }
+    m_plan = std::make_unique<EffectPlan>(
+        planEffects(*m_tracer, m_materials, m_dirs, m_network.get(), m_opt.plan));
+  }
+  return *m_plan;
+}
+
+const PointNetwork* SimulationJob::network() const {
+  plan();
+  return m_network.get();
+}
+
+namespace {
+bool anyGlossy(const std::vector<Material>& mats) {
+  for (const Material& m : mats)
+    if (m.type != BrdfType::Lambert && (m.ks.x > 0 || m.ks.y > 0 || m.ks.z > 0)) return true;
+  return false;
+}
+}  // namespace
+
 BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
   BtfInfo i;
   i.nu = m_opt.nu;
@@ -70,42 +111,119 @@ BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
   for (const auto& d : m_dirs.dirs()) i.dirsDeg.push_back({rad2deg(d.theta), rad2deg(d.phi)});
   i.chunkTexels = chunkTexels;
   i.spp = m_opt.spp;
-  i.shadows = shadowModeName(m_opt.shadows);
+  const EffectPlan& pl = plan();
+  i.shadows = m_opt.method == "pt" ? "exact (path traced)"
+              : pl.selfShadowing   ? shadowModeName(m_opt.shadows)
+                                   : shadowModeName(ShadowMode::None);
+  i.hasVmf = pl.vmf;
   i.shadowBias = m_opt.shadowBias;
   i.seed = m_opt.seed;
   i.sceneName = m_scene.name;
   i.sceneHash = sceneHash();
   i.sceneJson = sceneToJson(m_scene);
-  nlohmann::ordered_json plan;
-  plan["effects"]["direct"] = true;
-  plan["effects"]["self_shadowing"] = shadowModeName(m_opt.shadows);
-  plan["effects"]["interreflection"] = false;
-  plan["note"] =
-      "direct illumination with self-shadowing and masking; global illumination is not simulated "
-      "by this build";
+  nlohmann::ordered_json plan = nlohmann::ordered_json::parse(pl.toJson());
+  plan["method"] = m_opt.method;
+  if (m_opt.method == "pt") plan["pt_paths_per_sample"] = m_opt.ptPaths;
+  if (m_opt.method == "network" && pl.interreflection) {
+    const NetworkSettings n = networkSettings();
+    plan["network"]["voxels"] = n.voxels;
+    plan["network"]["min_distance"] = n.minDistance;
+    plan["network"]["alpha_directions"] = n.alphaDirections;
+    plan["network"]["links"] = n.links;
+    plan["network"]["gather"] = n.gather;
+    plan["network"]["points"] = m_network->points().size();
+    plan["network"]["link_count"] = m_network->links().size();
+  }
   i.plan = plan.dump();
   return i;
 }
 
+namespace {
+
+// Everything that evaluates one (texel, view) row of lights: the direct kernel, the network's
+// final gather, or the path tracer.
+struct TexelKernel {
+  const PeriodicTracer& tracer;
+  const std::vector<Material>& materials;
+  const DirectionSet& dirs;
+  const HitMaps& maps;
+  const DirectIllumination& direct;
+  const NetworkGather* gather = nullptr;
+  bool pathTrace = false;
+  PathSettings pt;
+  int ptPaths = 1;
+  std::vector<DVec3> lights;
+
+  int64_t eval(int i, int j, int view, float* out) const {
+    const int nL = dirs.size();
+    const SampleGrid& g = maps.grid();
+    const int K2 = g.spp * g.spp;
+    if (pathTrace) {
+      std::vector<Rgb> acc(size_t(nL), Rgb(0));
+      const float w = 1.0f / (float(K2) * float(ptPaths));
+      for (int s = 0; s < K2; ++s) {
+        const int64_t si = g.sampleIndex(i, j, s);
+        const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
+        for (int q = 0; q < ptPaths; ++q) {
+          Rng rng(hashKeys(pt.seed ^ 0x7e11, uint64_t(si), uint64_t(view), uint64_t(q)));
+          tracePath(tracer, materials, p0, dirs[view].w, lights.data(), nL, pt, rng, w, acc.data());
+        }
+      }
+      for (int l = 0; l < nL; ++l)
+        for (int c = 0; c < 3; ++c) out[3 * l + c] = std::isfinite(acc[l][c]) ? acc[l][c] : 0.f;
+      return int64_t(K2) * ptPaths * nL;
+    }
+    const int64_t n = direct.evalTexelView(i, j, view, out);
+    if (gather) {
+      const DVec3 wv = dirs[view].w;
+      const float invK2 = 1.0f / float(K2);
+      const TileGeometry& geom = tracer.geometry();
+      for (int s = 0; s < K2; ++s) {
+        const int64_t si = g.sampleIndex(i, j, s);
+        const uint32_t prim = maps.prim(view, si);
+        if (prim == kNoHit) continue;
+        const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
+        const Vec3 p = Vec3(p0 + double(maps.depth(view, si)) * wv);
+        Vec3 ng, ns;
+        if (!hitNormals(geom, prim, maps.bu(view, si), maps.bv(view, si), Vec3(wv), &ng, &ns))
+          continue;
+        gather->add(p, ng, ns, prim, Vec3(wv), invK2, out);
+      }
+    }
+    return n;
+  }
+};
+
+}  // namespace
+
 SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   SimEstimate e;
   e.threads = activeThreads();
+  const EffectPlan& pl = plan();
+  EffectPlan& plm = *m_plan;
+  const bool pt = m_opt.method == "pt";
+  const bool gi = !pt && pl.interreflection;
   const int nD = m_dirs.size();
   const int64_t texels = int64_t(m_opt.nu) * m_opt.nv;
   const uint64_t samples = uint64_t(texels) * uint64_t(m_opt.spp) * uint64_t(m_opt.spp);
   BtfInfo probe = storeInfo(1);
   const uint64_t texelBytes = probe.texelBytes();
   e.hitMapBytes = uint64_t(nD) * samples * HitMaps::kBytesPerSample;
-  const uint64_t vmfBytes = uint64_t(nD) * uint64_t(texels) * 8;
+  const uint64_t vmfBytes = pl.vmf ? uint64_t(nD) * uint64_t(texels) * 8 : 0;
+  if (gi)
+    e.networkBytes =
+        m_network->memoryBytes() +
+        NetworkLighting::memoryBytes(m_network->points().size(), nD, anyGlossy(m_materials));
   const uint64_t fixed =
-      (64ull << 20) + e.hitMapBytes + vmfBytes + m_tracer->embreeTriangles() * 160;
+      (64ull << 20) + e.hitMapBytes + vmfBytes + e.networkBytes + m_tracer->embreeTriangles() * 160;
   if (fixed + texelBytes > m_opt.memoryBudget) {
     e.refusal = "memory budget " + formatBytes(double(m_opt.memoryBudget)) +
                 " is too small: hit maps need " + formatBytes(double(e.hitMapBytes)) +
-                ", visibility map " + formatBytes(double(vmfBytes)) + ", one texel's " +
-                std::to_string(nD) + "x" + std::to_string(nD) + " matrix " +
-                formatBytes(double(texelBytes)) +
-                " (lower --texels, --spp or the direction count, or raise --memory-budget)";
+                ", visibility map " + formatBytes(double(vmfBytes)) + ", point network " +
+                formatBytes(double(e.networkBytes)) + ", one texel's " + std::to_string(nD) + "x" +
+                std::to_string(nD) + " matrix " + formatBytes(double(texelBytes)) +
+                " (lower --texels, --spp, the direction count or --network-voxels, or raise "
+                "--memory-budget)";
   }
   uint64_t perChunk = std::max<uint64_t>(
       1, (m_opt.memoryBudget > fixed ? m_opt.memoryBudget - fixed : 0) / texelBytes);
@@ -125,8 +243,8 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
                   " free";
   }
 
-  // Time: calibrate on this scene — hit maps and the direct kernel on a coarse 8×8 grid with the
-  // same directions, materials and shadow mode; cost per (sample, view) scales with nL.
+  // Time: calibrate on this scene — hit maps and the kernels on a coarse 8×8 grid with the same
+  // directions, materials and plan; cost per (sample, view) scales with nL.
   const int cal = 8;
   SampleGrid g{cal, cal, 1, m_scene.Lx, m_scene.Ly, m_opt.seed};
   HitMaps maps;
@@ -136,18 +254,64 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     maps.build(*m_tracer, m_dirs, g);
   }
   const double perRay = since(t0) / double(maps.raysTraced());
-  DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
-                            {m_opt.shadows, m_opt.shadowBias});
+  const double threads = std::max(1, e.threads);
+  const ShadowMode mode = pl.selfShadowing ? m_opt.shadows : ShadowMode::None;
   std::vector<float> buf(size_t(nD) * 3);
   const int calls = std::min(64, nD * 4);
-  t0 = Clock::now();
-  for (int k = 0; k < calls; ++k)
-    direct.evalTexelView(k % cal, (k / cal) % cal, (k * 7) % nD, buf.data());
-  const double perSampleView = since(t0) / calls;
-  const double threads = std::max(1, e.threads);
+  auto timeKernel = [&](ShadowMode m, const NetworkGather* gather, bool pathTrace) {
+    DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps, {m, m_opt.shadowBias});
+    TexelKernel k{*m_tracer, m_materials, m_dirs, maps, direct, gather, pathTrace, {}, 1, {}};
+    k.ptPaths = 1;
+    k.pt.maxBounces = pl.interreflection ? pl.bounces : 1;
+    for (const auto& d : m_dirs.dirs()) k.lights.push_back(DVec3(Vec3(d.w)));
+    const auto t = Clock::now();
+    for (int c = 0; c < calls; ++c) k.eval(c % cal, (c / cal) % cal, (c * 7) % nD, buf.data());
+    return since(t) / calls * (pathTrace ? m_opt.ptPaths : 1);
+  };
+  const double perSampleView = timeKernel(mode, nullptr, pt);
   e.hitMapSeconds = double(nD) * double(samples) * perRay / threads;
   e.evalSeconds = double(samples) * double(nD) * perSampleView / threads;
-  e.seconds = e.hitMapSeconds + e.evalSeconds;
+  // What each planner decision saves (or would cost).
+  if (!pt && !pl.selfShadowing) {
+    const double with = timeKernel(m_opt.shadows, nullptr, false);
+    plm.find("self_shadowing")->secondsSaved =
+        std::max(0.0, double(samples) * double(nD) * (with - perSampleView) / threads);
+  }
+  if (!pt && m_network && !m_network->points().empty()) {
+    // Network solve: two lights on one thread; gather: the same calls with the final gather.
+    DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps, {mode, m_opt.shadowBias});
+    NetworkLighting light;
+    const int P = pl.interreflection ? pl.bounces : std::max(2, m_opt.plan.maxAutoBounces);
+    const int nCal = std::min(2, nD);
+    {
+      ThreadLimit one(1);
+      light.solve(
+          *m_network, m_geom, m_materials, m_dirs,
+          [&](int l, const Vec3& p, const Vec3& ng, uint32_t prim) {
+            return direct.lightVisibility(l, p, ng, prim);
+          },
+          P, anyGlossy(m_materials), nullptr, nullptr, nCal);
+    }
+    const double perLight = light.solveSeconds() / nCal;
+    NetworkGather gather(*m_network, light, m_geom, m_materials);
+    const double withGather = timeKernel(mode, &gather, false);
+    const double lightSeconds = perLight * nD / threads;
+    const double gatherSeconds =
+        double(samples) * double(nD) * std::max(0.0, withGather - perSampleView) / threads;
+    if (gi) {
+      e.networkSeconds = 0;  // already built by the planner
+      e.lightSeconds = lightSeconds;
+      e.gatherSeconds = gatherSeconds;
+      e.evalSeconds += gatherSeconds;
+      if (!plm.find("bounces")->forced && pl.bounces < m_opt.plan.maxAutoBounces)
+        plm.find("bounces")->secondsSaved =
+            lightSeconds / std::max(1, pl.bounces - 1) * (m_opt.plan.maxAutoBounces - pl.bounces);
+    } else {
+      plm.find("interreflection")->secondsSaved =
+          m_network->buildSeconds() + lightSeconds + gatherSeconds;
+    }
+  }
+  e.seconds = e.hitMapSeconds + e.evalSeconds + e.lightSeconds;
   return e;
 }
 
@@ -157,11 +321,19 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   SimReport r;
   r.output = outPath;
   const auto start = Clock::now();
+  const EffectPlan& pl = plan();
+  const bool pt = m_opt.method == "pt";
+  const bool gi = !pt && pl.interreflection;
   const BtfInfo info = storeInfo(est.chunkTexels);
   std::unique_ptr<BtfWriter> writer;
   if (!outPath.empty()) writer = std::make_unique<BtfWriter>(outPath, info, m_opt.resume);
   r.chunks = info.chunks();
   r.chunksResumed = writer ? writer->chunksDone() : 0;
+  if (m_network) {
+    r.networkSeconds = m_network->buildSeconds();
+    r.networkPoints = m_network->points().size();
+    r.networkLinks = m_network->links().size();
+  }
 
   SampleGrid grid{m_opt.nu, m_opt.nv, m_opt.spp, m_scene.Lx, m_scene.Ly, m_opt.seed};
   HitMaps maps;
@@ -172,6 +344,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   }
   r.hitMapSeconds = since(start);
   r.hitMapRays = maps.raysTraced();
+  r.precomputeSeconds = r.hitMapSeconds + (gi ? r.networkSeconds : 0);
   if (cancel && cancel->cancelled()) {
     r.cancelled = true;
     return r;
@@ -179,16 +352,43 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   const int nD = m_dirs.size();
   if (writer) {
     std::vector<float> vmf;
-    vmf.reserve(size_t(nD) * size_t(info.texels()) * 2);
-    for (int d = 0; d < nD; ++d) {
-      auto v = maps.vmf(d);
-      vmf.insert(vmf.end(), v.begin(), v.end());
+    if (info.hasVmf) {
+      vmf.reserve(size_t(nD) * size_t(info.texels()) * 2);
+      for (int d = 0; d < nD; ++d) {
+        auto v = maps.vmf(d);
+        vmf.insert(vmf.end(), v.begin(), v.end());
+      }
     }
     writer->writeVmf(vmf);
   }
 
-  DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
-                            {m_opt.shadows, m_opt.shadowBias});
+  const ShadowMode mode = pl.selfShadowing ? m_opt.shadows : ShadowMode::None;
+  DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps, {mode, m_opt.shadowBias});
+  NetworkLighting lighting;
+  std::unique_ptr<NetworkGather> gather;
+  const auto renderStart = Clock::now();
+  if (gi) {
+    ProgressReporter pr("network light", nD, m_opt.progress);
+    lighting.solve(
+        *m_network, m_geom, m_materials, m_dirs,
+        [&](int l, const Vec3& p, const Vec3& ng, uint32_t prim) {
+          return direct.lightVisibility(l, p, ng, prim);
+        },
+        pl.bounces, anyGlossy(m_materials), &pr, cancel);
+    pr.finish();
+    r.lightSeconds = lighting.solveSeconds();
+    gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
+    if (cancel && cancel->cancelled()) {
+      r.cancelled = true;
+      return r;
+    }
+  }
+  TexelKernel kernel{*m_tracer, m_materials, m_dirs, maps, direct, gather.get(), pt, {}, 1, {}};
+  kernel.ptPaths = m_opt.ptPaths;
+  kernel.pt.maxBounces = pl.interreflection ? pl.bounces : 1;
+  kernel.pt.seed = m_opt.seed;
+  for (const auto& d : m_dirs.dirs()) kernel.lights.push_back(DVec3(Vec3(d.w)));
+
   const char* abortEnv = std::getenv("BTF_TEST_ABORT_AFTER_CHUNKS");  // test hook: simulates a kill
   const int abortAfter = abortEnv ? std::atoi(abortEnv) : -1;
   int written = 0;
@@ -204,25 +404,26 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     }
     const size_t stride = size_t(nD) * size_t(nD) * 3;
     chunk.assign(size_t(t1 - t0) * stride, 0.f);
-    parallelForChunks((t1 - t0) * nD, 8,
-                      [&](int64_t b, int64_t e) {
-                        uint64_t local = 0;
-                        for (int64_t k = b; k < e; ++k) {
-                          const int64_t t = t0 + k / nD;
-                          const int view = int(k % nD);
-                          local += uint64_t(direct.evalTexelView(
-                              int(t % m_opt.nu), int(t / m_opt.nu), view,
-                              &chunk[size_t(k / nD) * stride + size_t(view) * nD * 3]));
-                          if (view == nD - 1) pr.add(1);
-                        }
-                        evals += local;
-                      },
-                      cancel);
+    parallelForChunks(
+        (t1 - t0) * nD, pt ? 1 : 8,
+        [&](int64_t b, int64_t e) {
+          uint64_t local = 0;
+          for (int64_t k = b; k < e; ++k) {
+            const int64_t t = t0 + k / nD;
+            const int view = int(k % nD);
+            local += uint64_t(kernel.eval(int(t % m_opt.nu), int(t / m_opt.nu), view,
+                                          &chunk[size_t(k / nD) * stride + size_t(view) * nD * 3]));
+            if (view == nD - 1) pr.add(1);
+          }
+          evals += local;
+        },
+        cancel);
     if (cancel && cancel->cancelled()) {
       r.cancelled = true;
       break;
     }
     r.abrdfValues += uint64_t(t1 - t0) * uint64_t(nD) * uint64_t(nD);
+    if (m_sink) m_sink(c, t0, t1, chunk.data());
     if (writer) {
       const auto w0 = Clock::now();
       writer->writeChunk(c, chunk.data());
@@ -236,6 +437,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   }
   if (!r.cancelled) pr.finish();
   r.evalSeconds = since(evalStart) - r.writeSeconds;
+  r.renderSeconds = since(renderStart) - r.writeSeconds;
   r.brdfEvaluations = evals.load();
   if (writer && !r.cancelled) {
     writer->finish();

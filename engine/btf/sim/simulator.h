@@ -7,13 +7,22 @@
 #include <btf/scene/material.h>
 #include <btf/scene/scene.h>
 #include <btf/sim/direct.h>
+#include <btf/sim/network.h>
+#include <btf/sim/planner.h>
 #include <btf/store/btf_store.h>
 #include <btf/trace/periodic_tracer.h>
 
+#include <functional>
 #include <memory>
 #include <string>
 
 namespace btf {
+
+inline NetworkSettings autoNetwork() {
+  NetworkSettings n;
+  n.voxels = 0;
+  return n;
+}
 
 struct SimOptions {
   int nu = 32, nv = 32;
@@ -26,6 +35,12 @@ struct SimOptions {
   uint64_t maxChunkBytes = uint64_t(256) << 20;  // resume granularity
   bool resume = false;
   bool progress = true;
+  /// "network": direct light plus the point network's inter-reflection where the plan calls for
+  /// it; "pt": unbiased path tracing of every value (small configurations, the reference).
+  std::string method = "network";
+  PlanRequest plan;
+  NetworkSettings network = autoNetwork();  // voxels 0: one voxel per texel, in [16, 128]
+  int ptPaths = 16;                         // --method pt: paths per texel sample
 };
 
 /// Options from the scene's "simulation" block (the command line overrides them afterwards).
@@ -33,7 +48,9 @@ SimOptions optionsFromScene(const Scene& scene);
 
 struct SimEstimate {
   double seconds = 0, hitMapSeconds = 0, evalSeconds = 0;
+  double networkSeconds = 0, lightSeconds = 0, gatherSeconds = 0;  // parts of the above
   uint64_t memoryBytes = 0, hitMapBytes = 0, chunkBytes = 0, diskBytes = 0, freeDiskBytes = 0;
+  uint64_t networkBytes = 0;
   int chunkTexels = 1, chunks = 1;
   int threads = 1;
   std::string refusal;  // non-empty when the job cannot run within budget or disk
@@ -42,6 +59,10 @@ struct SimEstimate {
 struct SimReport {
   std::string output;
   double wallSeconds = 0, hitMapSeconds = 0, evalSeconds = 0, writeSeconds = 0;
+  // Table 4.I's split: precompute = network (sampling, α, links) + hit maps; render = per-light
+  // network solve + every texel's values.
+  double networkSeconds = 0, lightSeconds = 0, precomputeSeconds = 0, renderSeconds = 0;
+  size_t networkPoints = 0, networkLinks = 0;
   uint64_t hitMapRays = 0;
   uint64_t abrdfValues = 0;      // (texel, view, light) values computed
   uint64_t brdfEvaluations = 0;  // (sample, view, light) BRDF × visibility evaluations
@@ -62,6 +83,16 @@ class SimulationJob {
   const DirectionSet& directions() const { return m_dirs; }
   const std::vector<Material>& materials() const { return m_materials; }
   std::string sceneHash() const;
+  /// The effect plan (computed on first use: builds the point network unless inter-reflection is
+  /// forced off).
+  const EffectPlan& plan() const;
+  /// The point network (null when none was built).
+  const PointNetwork* network() const;
+  /// Network settings after resolving the automatic density.
+  NetworkSettings networkSettings() const;
+  /// Chunk consumer: receives every finished chunk (texels [t0, t1), texel-major values).
+  using ChunkSink = std::function<void(int chunk, int64_t t0, int64_t t1, const float* values)>;
+  void setChunkSink(ChunkSink sink) { m_sink = std::move(sink); }
   /// The store header this job writes (chunk size from the memory budget).
   BtfInfo storeInfo(int chunkTexels) const;
 
@@ -79,6 +110,9 @@ class SimulationJob {
   std::unique_ptr<PeriodicTracer> m_tracer;
   DirectionSet m_dirs;
   std::vector<Material> m_materials;
+  mutable std::unique_ptr<EffectPlan> m_plan;
+  mutable std::unique_ptr<PointNetwork> m_network;
+  ChunkSink m_sink;
 };
 
 }  // namespace btf

@@ -51,6 +51,7 @@ std::string infoToJson(const BtfInfo& i) {
   j["settings"]["shadows"] = i.shadows;
   j["settings"]["shadow_bias"] = i.shadowBias;
   j["settings"]["seed"] = i.seed;
+  j["settings"]["vmf"] = i.hasVmf;
   j["scene"]["name"] = i.sceneName;
   j["scene"]["hash"] = i.sceneHash;
   j["scene"]["json"] = i.sceneJson;
@@ -79,6 +80,7 @@ BtfInfo infoFromJson(const std::string& text, const std::string& file) {
     i.shadows = j.at("settings").at("shadows");
     i.shadowBias = j.at("settings").at("shadow_bias");
     i.seed = j.at("settings").at("seed");
+    i.hasVmf = j.at("settings").value("vmf", true);
     i.sceneName = j.at("scene").at("name");
     i.sceneHash = j.at("scene").at("hash");
     i.sceneJson = j.at("scene").at("json");
@@ -98,7 +100,8 @@ BtfLayout BtfLayout::of(const BtfInfo& info, uint64_t headerJsonBytes) {
   l.headerBytes = headerJsonBytes;
   l.tableOffset = alignUp(24 + headerJsonBytes, 64);
   l.vmfOffset = alignUp(l.tableOffset + sizeof(TableEntry) * uint64_t(info.chunks()), 4096);
-  l.vmfBytes = uint64_t(info.nDirs()) * uint64_t(info.texels()) * 2 * sizeof(float);
+  l.vmfBytes =
+      info.hasVmf ? uint64_t(info.nDirs()) * uint64_t(info.texels()) * 2 * sizeof(float) : 0;
   l.dataOffset = alignUp(l.vmfOffset + l.vmfBytes + 8, 4096);
   l.totalBytes = l.dataOffset + uint64_t(info.texels()) * info.texelBytes();
   return l;
@@ -296,6 +299,9 @@ std::vector<float> BtfReader::readImage(int view, int light) const {
 
 std::vector<float> BtfReader::readVmf(int dir) const {
   if (dir < 0 || dir >= m_info.nDirs()) throw Error(m_path + ": direction index out of range");
+  if (!m_info.hasVmf)
+    throw Error(m_path +
+                ": this BTF has no visibility map (the effect plan dropped it: flat tile)");
   std::vector<float> out(size_t(m_info.texels()) * 2);
   preadAll(out.data(), out.size() * sizeof(float),
            m_layout.vmfOffset + uint64_t(dir) * uint64_t(m_info.texels()) * 2 * sizeof(float));

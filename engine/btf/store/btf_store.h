@@ -26,6 +26,7 @@ struct BtfInfo {
   std::string sceneHash;  // hex checksum of the canonical scene and its geometry
   std::string sceneJson;  // canonical scene (every parameter)
   std::string plan;       // JSON of the effect plan / extra settings, free-form
+  bool hasVmf = true;     // false when the plan dropped the visibility map (flat tile)
 
   int nDirs() const { return int(dirsDeg.size()); }
   int64_t texels() const { return int64_t(nu) * nv; }

@@ -1,0 +1,438 @@
+#include <btf/core/error.h>
+#include <btf/core/rng.h>
+#include <btf/sim/network.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace btf {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+float wrap(float x, double L) {
+  float r = float(x - std::floor(double(x) / L) * L);
+  return r >= float(L) ? 0.0f : r;
+}
+float luminance(const Rgb& c) {
+  return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
+}
+bool isGlossy(const Material& m) {
+  return m.type != BrdfType::Lambert && (m.ks.x > 0 || m.ks.y > 0 || m.ks.z > 0);
+}
+}  // namespace
+
+uint64_t PointNetwork::memoryBytes() const {
+  return m_points.size() * sizeof(NetworkPoint) + m_links.size() * sizeof(NetworkLink) +
+         (m_cellStart.size() + m_cellPoints.size()) * 4;
+}
+
+void PointNetwork::buildGrid() {
+  const size_t cells = size_t(m_nx) * m_ny * m_nz;
+  m_cellStart.assign(cells + 1, 0);
+  auto cellOf = [&](const Vec3& p) {
+    const int cx = std::min(m_nx - 1, int(p.x / m_cx)), cy = std::min(m_ny - 1, int(p.y / m_cy));
+    const int cz = std::clamp(int((p.z - m_z0) / m_cz), 0, m_nz - 1);
+    return (size_t(cz) * m_ny + cy) * m_nx + cx;
+  };
+  for (const auto& q : m_points) ++m_cellStart[cellOf(q.p) + 1];
+  for (size_t c = 0; c < cells; ++c) m_cellStart[c + 1] += m_cellStart[c];
+  m_cellPoints.assign(m_points.size(), 0);
+  std::vector<uint32_t> fill(m_cellStart.begin(), m_cellStart.end() - 1);
+  for (uint32_t i = 0; i < m_points.size(); ++i) m_cellPoints[fill[cellOf(m_points[i].p)]++] = i;
+}
+
+template <class F>
+void PointNetwork::forNeighbours(const Vec3& pin, int ring, F&& f) const {
+  const Vec3 p(wrap(pin.x, m_Lx), wrap(pin.y, m_Ly), pin.z);
+  const int cx = std::min(m_nx - 1, int(p.x / m_cx)), cy = std::min(m_ny - 1, int(p.y / m_cy));
+  const int cz = int(std::floor((p.z - m_z0) / m_cz));
+  const int rx = std::min(ring, (m_nx - 1) / 2), ry = std::min(ring, (m_ny - 1) / 2);
+  for (int dz = -ring; dz <= ring; ++dz) {
+    const int z = cz + dz;
+    if (z < 0 || z >= m_nz) continue;
+    for (int dy = -ry; dy <= ry; ++dy) {
+      const int y = ((cy + dy) % m_ny + m_ny) % m_ny;
+      for (int dx = -rx; dx <= rx; ++dx) {
+        const int x = ((cx + dx) % m_nx + m_nx) % m_nx;
+        const size_t c = (size_t(z) * m_ny + y) * m_nx + x;
+        for (uint32_t k = m_cellStart[c]; k < m_cellStart[c + 1]; ++k) {
+          const uint32_t i = m_cellPoints[k];
+          Vec3 d = m_points[i].p - p;
+          d.x -= float(std::round(d.x / m_Lx) * m_Lx);
+          d.y -= float(std::round(d.y / m_Ly) * m_Ly);
+          f(i, d);
+        }
+      }
+    }
+  }
+}
+
+int PointNetwork::nearest(const Vec3& p, const Vec3& n, int k, uint32_t* idx, float* w) const {
+  if (m_points.empty() || k <= 0) return 0;
+  const float maxD2 = 4.0f * m_h * m_h;
+  int found = 0;
+  float d2s[16];
+  k = std::min(k, 16);
+  forNeighbours(p, 2, [&](uint32_t i, const Vec3& d) {
+    const float d2 = glm::dot(d, d);
+    if (d2 > maxD2 || glm::dot(m_points[i].ng, n) < 0.3f) return;
+    if (found == k && d2 >= d2s[k - 1]) return;
+    int pos = found < k ? found++ : k - 1;
+    while (pos > 0 && d2s[pos - 1] > d2) {
+      d2s[pos] = d2s[pos - 1];
+      idx[pos] = idx[pos - 1];
+      --pos;
+    }
+    d2s[pos] = d2;
+    idx[pos] = i;
+  });
+  float sum = 0;
+  for (int i = 0; i < found; ++i) sum += (w[i] = 1.0f / (std::sqrt(d2s[i]) + 0.5f * m_h));
+  for (int i = 0; i < found; ++i) w[i] /= sum;
+  return found;
+}
+
+void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
+                         ProgressReporter* progress, const CancelToken* cancel) {
+  const auto start = Clock::now();
+  if (s.voxels < 2 || s.voxels > 1024)
+    throw Error("network density must be between 2 and 1024 voxels per side (got " +
+                std::to_string(s.voxels) + ")");
+  if (s.links < 1 || s.links > 256) throw Error("network links per point must be 1..256");
+  if (s.alphaDirections < 16 || s.alphaDirections > 4096)
+    throw Error("network visibility directions must be 16..4096");
+  if (s.gather < 1 || s.gather > 16) throw Error("network gather points (N1) must be 1..16");
+  m_settings = s;
+  const TileGeometry& g = tracer.geometry();
+  m_Lx = g.Lx;
+  m_Ly = g.Ly;
+  m_h = float(std::max(g.Lx, g.Ly) / s.voxels);
+  m_nx = std::max(1, int(std::lround(g.Lx / m_h)));
+  m_ny = std::max(1, int(std::lround(g.Ly / m_h)));
+  m_cx = float(g.Lx / m_nx);
+  m_cy = float(g.Ly / m_ny);
+  m_z0 = g.zmin - 1e-4f * m_h;
+  m_nz = std::max(1, int(std::ceil((g.zmax - m_z0) / m_h + 1e-4)));
+  m_cz = m_h;
+  const size_t voxels = size_t(m_nx) * m_ny * m_nz;
+  if (voxels > (size_t(1) << 27))
+    throw Error("network voxel grid of " + std::to_string(voxels) +
+                " voxels is too large: lower the network density");
+
+  // 1. Voxelise: each voxel keeps the sub-triangle centroid closest to its centre.
+  struct Cand {
+    float d2 = INFINITY;
+    uint32_t prim = 0;
+    float u = 0, v = 0;
+  };
+  std::vector<Cand> best(voxels);
+  const float areaThreshold = 0.25f * m_h * m_h;
+  struct Sub {
+    Vec3 a, b, c;
+    Vec2 ba, bb, bc;  // Embree barycentrics (u, v) of the corners
+    int depth;
+  };
+  std::vector<Sub> stack;
+  for (uint32_t t = 0; t < g.triangleCount(); ++t) {
+    const auto& tri = g.mesh.tri[t];
+    const Vec3 p0 = g.mesh.pos[tri.x], p1 = g.mesh.pos[tri.y], p2 = g.mesh.pos[tri.z];
+    if (!(glm::length(glm::cross(p1 - p0, p2 - p0)) > 1e-12f * m_h * m_h)) continue;
+    stack.push_back({p0, p1, p2, Vec2(0, 0), Vec2(1, 0), Vec2(0, 1), 0});
+    while (!stack.empty()) {
+      Sub q = stack.back();
+      stack.pop_back();
+      const float area = 0.5f * glm::length(glm::cross(q.b - q.a, q.c - q.a));
+      if (area > areaThreshold && q.depth < 20) {
+        const Vec3 ab = 0.5f * (q.a + q.b), bc = 0.5f * (q.b + q.c), ca = 0.5f * (q.c + q.a);
+        const Vec2 bab = 0.5f * (q.ba + q.bb), bbc = 0.5f * (q.bb + q.bc),
+                   bca = 0.5f * (q.bc + q.ba);
+        const int d = q.depth + 1;
+        stack.push_back({q.a, ab, ca, q.ba, bab, bca, d});
+        stack.push_back({ab, q.b, bc, bab, q.bb, bbc, d});
+        stack.push_back({ca, bc, q.c, bca, bbc, q.bc, d});
+        stack.push_back({ab, bc, ca, bab, bbc, bca, d});
+        continue;
+      }
+      const Vec3 c = (q.a + q.b + q.c) / 3.0f;
+      const Vec2 bcen = (q.ba + q.bb + q.bc) / 3.0f;
+      const Vec3 w(wrap(c.x, g.Lx), wrap(c.y, g.Ly), c.z);
+      const int ix = std::min(m_nx - 1, int(w.x / m_cx)), iy = std::min(m_ny - 1, int(w.y / m_cy));
+      const int iz = std::clamp(int((w.z - m_z0) / m_cz), 0, m_nz - 1);
+      const Vec3 centre((ix + 0.5f) * m_cx, (iy + 0.5f) * m_cy, m_z0 + (iz + 0.5f) * m_cz);
+      const Vec3 d = w - centre;
+      const float d2 = glm::dot(d, d);
+      Cand& b = best[(size_t(iz) * m_ny + iy) * m_nx + ix];
+      if (d2 < b.d2) b = {d2, t, bcen.x, bcen.y};
+    }
+  }
+  // 2. Points in voxel order, normals on the triangle's side.
+  std::vector<NetworkPoint> cands;
+  for (const Cand& c : best) {
+    if (!std::isfinite(c.d2)) continue;
+    NetworkPoint q;
+    q.prim = c.prim;
+    const Vec3 p = g.point(c.prim, c.u, c.v);
+    q.p = Vec3(wrap(p.x, g.Lx), wrap(p.y, g.Ly), p.z);
+    q.ng = glm::normalize(g.faceNormal(c.prim));
+    Vec3 ns = g.shadingNormal(c.prim, c.u, c.v);
+    const float l = glm::length(ns);
+    ns = l > 0 ? ns / l : q.ng;
+    q.ns = glm::dot(ns, q.ng) < 0 ? -ns : ns;
+    cands.push_back(q);
+  }
+  // 3. Prune points closer than the minimum distance (greedy, in voxel order: deterministic).
+  m_points = cands;
+  buildGrid();
+  const float minD2 = (s.minDistance * m_h) * (s.minDistance * m_h);
+  std::vector<uint8_t> removed(cands.size(), 0);
+  for (uint32_t i = 0; i < cands.size(); ++i) {
+    if (removed[i]) continue;
+    forNeighbours(cands[i].p, 1, [&](uint32_t j, const Vec3& d) {
+      if (j > i && glm::dot(d, d) < minD2) removed[j] = 1;
+    });
+  }
+  m_points.clear();
+  for (size_t i = 0; i < cands.size(); ++i)
+    if (!removed[i]) m_points.push_back(cands[i]);
+  buildGrid();
+
+  // 4. Visibility factor and links, per point (parallel, counter-based jitter).
+  const int M = s.alphaDirections;
+  const int side = std::max(1, int(std::lround(std::sqrt(double(M)))));
+  const int dirsUsed = side * side;
+  const double eps = tracer.epsilon();
+  std::vector<std::vector<NetworkLink>> perPoint(m_points.size());
+  parallelForChunks(
+      int64_t(m_points.size()), 16,
+      [&](int64_t b, int64_t e) {
+        std::vector<std::pair<Vec3, DVec3>> hits;  // (hit face normal, hit point) with direction
+        std::vector<DVec3> hitDirs;
+        for (int64_t i = b; i < e; ++i) {
+          NetworkPoint& q = m_points[size_t(i)];
+          const Frame fr = Frame::fromNormal(q.ng);
+          const DVec3 origin = DVec3(q.p) + eps * DVec3(q.ng);
+          hits.clear();
+          hitDirs.clear();
+          for (int a = 0; a < side; ++a)
+            for (int c = 0; c < side; ++c) {
+              const uint64_t h = hashKeys(s.seed ^ 0xa1fa, uint64_t(i), uint64_t(a * side + c));
+              const float u1 = (a + uniformFloat(h)) / side,
+                          u2 = (c + uniformFloat(mix64(h))) / side;
+              const float r = std::sqrt(u1), phi = 2 * kPiF * u2;
+              const Vec3 dl(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.f, 1 - u1)));
+              const DVec3 d = glm::normalize(DVec3(fr.toWorld(dl)));
+              const RayHit hit = tracer.intersect(origin, d);
+              if (!hit.hit()) continue;
+              hits.push_back({g.faceNormal(hit.prim), origin + hit.t * d});
+              hitDirs.push_back(d);
+            }
+          q.alpha = float(hits.size()) / float(dirsUsed);
+          const int nh = int(hits.size());
+          const int want = std::min(nh, s.links);
+          auto& out = perPoint[size_t(i)];
+          for (int k = 0; k < want; ++k) {
+            const int hi = int((int64_t(k) * nh) / want);
+            const DVec3 d = hitDirs[size_t(hi)];
+            const Vec3 fn = hits[size_t(hi)].first;
+            if (glm::dot(fn, Vec3(d)) > 0) continue;  // back face: no network point there
+            uint32_t idx[4];
+            float w[4];
+            const int nc = nearest(Vec3(hits[size_t(hi)].second), -Vec3(d), 4, idx, w);
+            for (int c = 0; c < nc; ++c) {
+              const NetworkPoint& t = m_points[idx[c]];
+              // The target's periodic image nearest to the hit.
+              DVec3 img(t.p);
+              const DVec3 hp = hits[size_t(hi)].second;
+              img.x += std::round((hp.x - img.x) / g.Lx) * g.Lx;
+              img.y += std::round((hp.y - img.y) / g.Ly) * g.Ly;
+              const DVec3 seg = img + eps * DVec3(t.ng) - origin;
+              const double dist = glm::length(seg);
+              if (!(dist > 4 * eps)) continue;
+              const DVec3 dir = seg / dist;
+              if (glm::dot(Vec3(dir), q.ng) <= 0 || glm::dot(Vec3(dir), t.ng) >= 0) continue;
+              if (tracer.occluded(origin, dir, 0, dist - 2 * eps)) continue;
+              out.push_back({idx[c], Vec3(dir)});
+              break;
+            }
+          }
+          if (progress) progress->add(1);
+        }
+      },
+      cancel);
+  m_links.clear();
+  double sumA = 0;
+  m_maxAlpha = 0;
+  for (size_t i = 0; i < m_points.size(); ++i) {
+    m_points[i].linkBegin = uint32_t(m_links.size());
+    m_links.insert(m_links.end(), perPoint[i].begin(), perPoint[i].end());
+    m_points[i].linkEnd = uint32_t(m_links.size());
+    if (m_points[i].linkEnd == m_points[i].linkBegin) m_points[i].alpha = 0;  // nothing to gather
+    sumA += m_points[i].alpha;
+    m_maxAlpha = std::max(m_maxAlpha, double(m_points[i].alpha));
+  }
+  m_meanAlpha = m_points.empty() ? 0 : sumA / double(m_points.size());
+  m_seconds = since(start);
+}
+
+void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
+                            const std::vector<Material>& materials, const DirectionSet& dirs,
+                            const LightVisibility& visibility, int bounces, bool directional,
+                            ProgressReporter* progress, const CancelToken* cancel, int lightLimit) {
+  const auto start = Clock::now();
+  const auto& pts = net.points();
+  const auto& links = net.links();
+  const size_t nP = pts.size(), nLk = links.size();
+  m_nL = dirs.size();
+  m_E.assign(nP * size_t(m_nL) * 3, 0.0f);
+  m_D.clear();
+  if (directional) m_D.assign(nP * size_t(m_nL) * 3, 0.0f);
+  const int P = bounces;
+
+  // Light-independent tables: per point its material, frame and gather weight α·π/N; per link
+  // into a glossy target j, the glossy BRDF of j between each of j's incoming links and the
+  // direction back along the link.
+  std::vector<const Material*> mat(nP);
+  std::vector<Frame> frame(nP);
+  std::vector<float> gw(nP, 0.0f);
+  for (size_t k = 0; k < nP; ++k) {
+    mat[k] = &materials[geom.triMaterial[pts[k].prim]];
+    frame[k] = Frame::fromNormal(pts[k].ns);
+    const uint32_t n = pts[k].linkEnd - pts[k].linkBegin;
+    gw[k] = n ? pts[k].alpha * kPiF / float(n) : 0.0f;
+  }
+  std::vector<uint32_t> transferStart(nLk + 1, 0);
+  for (size_t e = 0; e < nLk; ++e) {
+    const NetworkPoint& j = pts[links[e].target];
+    transferStart[e + 1] =
+        transferStart[e] + (isGlossy(*mat[links[e].target]) ? j.linkEnd - j.linkBegin : 0);
+  }
+  std::vector<Rgb> transfer(transferStart[nLk]);
+  parallelForChunks(int64_t(nLk), 256, [&](int64_t b, int64_t e) {
+    for (int64_t x = b; x < e; ++x) {
+      const uint32_t jt = links[size_t(x)].target;
+      if (transferStart[x + 1] == transferStart[x]) continue;
+      const NetworkPoint& j = pts[jt];
+      const Vec3 out = frame[jt].toLocal(-links[size_t(x)].dir);
+      for (uint32_t q = j.linkBegin; q < j.linkEnd; ++q)
+        transfer[transferStart[x] + (q - j.linkBegin)] =
+            evalGlossy(*mat[jt], frame[jt].toLocal(links[q].dir), out);
+    }
+  });
+
+  parallelForChunks(
+      lightLimit > 0 ? std::min(lightLimit, m_nL) : m_nL, 1,
+      [&](int64_t lb, int64_t le) {
+        std::vector<float> edir(nP);
+        std::vector<Rgb> lin(nLk), linPrev(nLk), eOrder(nP), eTot(nP);
+        std::vector<Vec3> dsum(directional ? nP : 0);
+        for (int64_t l = lb; l < le; ++l) {
+          const Vec3 w(dirs[int(l)].w);
+          const float invCos = 1.0f / float(std::max(dirs[int(l)].w.z, 1e-7));
+          for (size_t k = 0; k < nP; ++k) {
+            const float c = glm::dot(pts[k].ns, w);
+            edir[k] = 0;
+            if (c > 0 && glm::dot(pts[k].ng, w) > 0)
+              edir[k] = c * visibility(int(l), pts[k].p, pts[k].ng, pts[k].prim);
+          }
+          std::fill(eTot.begin(), eTot.end(), Rgb(0));
+          if (directional) std::fill(dsum.begin(), dsum.end(), Vec3(0));
+          for (int order = 1; order < P; ++order) {
+            // Radiance arriving along each link: what its target sends back toward the source.
+            for (size_t e = 0; e < nLk; ++e) {
+              const uint32_t j = links[e].target;
+              const Material& m = *mat[j];
+              Rgb L(0);
+              if (order == 1) {
+                if (edir[j] > 0) {
+                  L = m.kdOverPi * edir[j];
+                  if (transferStart[e + 1] > transferStart[e])
+                    L += evalGlossy(m, frame[j].toLocal(w), frame[j].toLocal(-links[e].dir)) *
+                         edir[j];
+                }
+              } else {
+                L = m.kdOverPi * eOrder[j];
+                const uint32_t t0 = transferStart[e], t1 = transferStart[e + 1];
+                if (t1 > t0) {
+                  Rgb g(0);
+                  for (uint32_t q = t0; q < t1; ++q)
+                    g += transfer[q] * linPrev[pts[j].linkBegin + (q - t0)];
+                  L += g * gw[j];
+                }
+              }
+              lin[e] = L;
+            }
+            for (size_t k = 0; k < nP; ++k) {
+              Rgb sum(0);
+              for (uint32_t e = pts[k].linkBegin; e < pts[k].linkEnd; ++e) {
+                sum += lin[e];
+                if (directional) dsum[k] += luminance(lin[e]) * links[e].dir;
+              }
+              eOrder[k] = sum * gw[k];
+              eTot[k] += eOrder[k];
+            }
+            std::swap(lin, linPrev);
+          }
+          for (size_t k = 0; k < nP; ++k) {
+            float* E = &m_E[(k * size_t(m_nL) + size_t(l)) * 3];
+            for (int c = 0; c < 3; ++c) E[c] = std::isfinite(eTot[k][c]) ? eTot[k][c] * invCos : 0;
+            if (directional) {
+              const float len = glm::length(dsum[k]);
+              const Vec3 d = len > 0 ? dsum[k] / len : pts[k].ns;
+              float* D = &m_D[(k * size_t(m_nL) + size_t(l)) * 3];
+              D[0] = d.x;
+              D[1] = d.y;
+              D[2] = d.z;
+            }
+          }
+          if (progress) progress->add(1);
+        }
+      },
+      cancel);
+  m_seconds = since(start);
+}
+
+void NetworkGather::add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t prim,
+                        const Vec3& wo, float weight, float* out) const {
+  uint32_t idx[16];
+  float w[16];
+  const int n = m_net.nearest(p, ng, m_net.settings().gather, idx, w);
+  if (n == 0) return;
+  const Material& m = m_materials[m_geom.triMaterial[prim]];
+  const int nL = m_light.lights();
+  const Rgb kd = m.kdOverPi * weight;
+  for (int i = 0; i < n; ++i) {
+    const float* E = m_light.irradiance(idx[i]);
+    const float a = kd.x * w[i], b = kd.y * w[i], c = kd.z * w[i];
+    for (int l = 0; l < nL; ++l) {
+      out[3 * l] += a * E[3 * l];
+      out[3 * l + 1] += b * E[3 * l + 1];
+      out[3 * l + 2] += c * E[3 * l + 2];
+    }
+  }
+  if (!isGlossy(m) || !m_light.directional()) return;
+  const Frame fr = Frame::fromNormal(ns);
+  const Vec3 woL = fr.toLocal(wo);
+  for (int l = 0; l < nL; ++l) {
+    Vec3 d(0);
+    Rgb E(0);
+    for (int i = 0; i < n; ++i) {
+      const float* Ei = m_light.irradiance(idx[i]) + 3 * l;
+      const float* Di = m_light.direction(idx[i]) + 3 * l;
+      E += w[i] * Rgb(Ei[0], Ei[1], Ei[2]);
+      d += w[i] * Vec3(Di[0], Di[1], Di[2]);
+    }
+    if (!(E.x > 0 || E.y > 0 || E.z > 0)) continue;
+    const float len = glm::length(d);
+    if (!(len > 0)) continue;
+    const Rgb f = evalGlossy(m, fr.toLocal(d / len), woL) * weight;
+    out[3 * l] += f.x * E.x;
+    out[3 * l + 1] += f.y * E.y;
+    out[3 * l + 2] += f.z * E.z;
+  }
+}
+
+}  // namespace btf

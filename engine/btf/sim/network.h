@@ -1,0 +1,141 @@
+// Global illumination inside the micro-geometry with the point network of §4.2.3 (fig. 4.7–4.10).
+//
+// Precompute (light-independent, once per scene):
+//  * stratified points after Nehab & Shilane: the tile is voxelised, each triangle is split into
+//    sub-triangles below an area threshold and each voxel keeps the sub-triangle centroid closest
+//    to its centre; points closer than a minimum distance are pruned;
+//  * per point, 256 stratified cosine-weighted directions around its normal: α(x) (eq. 4.19) is
+//    the cosine-weighted fraction of them that hit geometry — the *occluded* fraction, because
+//    light only arrives from other surfaces (the BTF's light is directional and the open sky is
+//    black), so the occluded part of the hemisphere is exactly where indirect light comes from;
+//  * links: among the occluded directions, up to `links` evenly spread ones; each hit is snapped
+//    to the nearest network point facing the ray (the form-factor importance: same side, nearest)
+//    and the link re-tested for visibility. Links cross tile sides (periodic images).
+//
+// Per light (reused by every view and texel): direct irradiance of each point from the light's
+// shadow map (fig. 4.9), then P − 1 propagations along the links, L_ind_k of the expansion
+// L = L_dir + Σ L_ind_k, with cosine-weighted link sampling giving the estimator
+// E_ind(x) = α(x) · π / N · Σ_links L(y → x). Glossy points use the actual link directions at
+// every bounce (a light-independent transfer table between incoming and outgoing links).
+//
+// Final gather: each direct hit of the hit maps takes the irradiance of its N1 nearest network
+// points on the same side (distance-weighted), reflected by its own BRDF: kd/π · E for the
+// diffuse term and, for glossy lobes, f(ω̄, ωo) · E with ω̄ the mean incident direction.
+#pragma once
+#include <btf/core/parallel.h>
+#include <btf/core/progress.h>
+#include <btf/directions/direction_set.h>
+#include <btf/scene/material.h>
+#include <btf/trace/periodic_tracer.h>
+
+#include <functional>
+#include <vector>
+
+namespace btf {
+
+struct NetworkSettings {
+  int voxels = 64;           // voxels along the longer tile side (network density); 0 = auto
+  float minDistance = 0.5f;  // pruning distance, in voxel sizes
+  int alphaDirections = 256;
+  int links = 16;  // links per network point
+  int gather = 4;  // N1: network points per direct hit
+  uint64_t seed = 1;
+};
+
+struct NetworkPoint {
+  Vec3 p;   // on the surface, inside [0, Lx) × [0, Ly)
+  Vec3 ng;  // unit geometric normal (the triangle's orientation: the network is one-sided)
+  Vec3 ns;  // unit shading normal on the same side
+  uint32_t prim = 0;
+  float alpha = 0;  // cosine-weighted occluded fraction of the hemisphere
+  uint32_t linkBegin = 0, linkEnd = 0;
+};
+
+struct NetworkLink {
+  uint32_t target = 0;
+  Vec3 dir;  // unit, from the point to the target's periodic image it sees
+};
+
+class PointNetwork {
+ public:
+  void build(const PeriodicTracer& tracer, const NetworkSettings& settings,
+             ProgressReporter* progress = nullptr, const CancelToken* cancel = nullptr);
+  const std::vector<NetworkPoint>& points() const { return m_points; }
+  const std::vector<NetworkLink>& links() const { return m_links; }
+  const NetworkSettings& settings() const { return m_settings; }
+  float voxelSize() const { return m_h; }
+  double meanAlpha() const { return m_meanAlpha; }
+  double maxAlpha() const { return m_maxAlpha; }
+  double buildSeconds() const { return m_seconds; }
+  uint64_t memoryBytes() const;
+
+  /// Up to k nearest points to p whose normal agrees with n (cos > 0.3), within two voxel sizes
+  /// (periodic distance); weights ∝ 1/(d + h/2), summing to 1. Returns how many were found.
+  int nearest(const Vec3& p, const Vec3& n, int k, uint32_t* idx, float* w) const;
+
+ private:
+  void buildGrid();
+  template <class F>
+  void forNeighbours(const Vec3& p, int ring, F&& f) const;
+  NetworkSettings m_settings;
+  std::vector<NetworkPoint> m_points;
+  std::vector<NetworkLink> m_links;
+  double m_Lx = 1, m_Ly = 1;
+  float m_h = 1, m_z0 = 0;
+  int m_nx = 1, m_ny = 1, m_nz = 1;
+  float m_cx = 1, m_cy = 1, m_cz = 1;
+  std::vector<uint32_t> m_cellStart, m_cellPoints;
+  double m_meanAlpha = 0, m_maxAlpha = 0, m_seconds = 0;
+};
+
+/// Light visibility of a surface point (p on triangle prim, geometric normal ng facing the
+/// light) for light l of the set: the shadow-map test, shadow rays, or 1 without self-shadowing.
+using LightVisibility = std::function<float(int l, const Vec3& p, const Vec3& ng, uint32_t prim)>;
+
+class NetworkLighting {
+ public:
+  /// Solves every light of `dirs` on the network: per point and light, the indirect irradiance
+  /// of orders 1..P−1 (P = `bounces`) divided by cos θi (aBRDF units), and its mean incident
+  /// direction when `directional` (needed by glossy receivers). lightLimit > 0 solves only the
+  /// first lights (calibration of the estimate).
+  void solve(const PointNetwork& net, const TileGeometry& geom,
+             const std::vector<Material>& materials, const DirectionSet& dirs,
+             const LightVisibility& visibility, int bounces, bool directional,
+             ProgressReporter* progress = nullptr, const CancelToken* cancel = nullptr,
+             int lightLimit = -1);
+  int lights() const { return m_nL; }
+  /// nL × 3 floats of point k: indirect irradiance / cos θi, per light and channel.
+  const float* irradiance(uint32_t k) const { return &m_E[size_t(k) * size_t(m_nL) * 3]; }
+  /// nL × 3 floats of point k: unit mean incident direction per light (world).
+  const float* direction(uint32_t k) const { return &m_D[size_t(k) * size_t(m_nL) * 3]; }
+  bool directional() const { return !m_D.empty(); }
+  double solveSeconds() const { return m_seconds; }
+  static uint64_t memoryBytes(size_t points, int lights, bool directional) {
+    return uint64_t(points) * uint64_t(lights) * 12 * (directional ? 2 : 1);
+  }
+
+ private:
+  int m_nL = 0;
+  std::vector<float> m_E, m_D;
+  double m_seconds = 0;
+};
+
+/// The final gather of the indirect term for the direct hits of a view.
+class NetworkGather {
+ public:
+  NetworkGather(const PointNetwork& net, const NetworkLighting& light, const TileGeometry& geom,
+                const std::vector<Material>& materials)
+      : m_net(net), m_light(light), m_geom(geom), m_materials(materials) {}
+  /// Adds weight × the indirect aBRDF of every light to out[l * 3 + c] for the hit at p on
+  /// triangle prim (normals ng, ns facing the viewer), seen from direction wo (world, unit).
+  void add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t prim, const Vec3& wo,
+           float weight, float* out) const;
+
+ private:
+  const PointNetwork& m_net;
+  const NetworkLighting& m_light;
+  const TileGeometry& m_geom;
+  const std::vector<Material>& m_materials;
+};
+
+}  // namespace btf
