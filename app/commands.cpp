@@ -585,11 +585,12 @@ int study(const StudyArgs& a) {
                scene.name.c_str(), configs.size(), o.nu, o.nv, o.referenceSamples);
   const Study st = runStudy(scene, o);
   writeStudy(st, a.output);
-  std::printf("%-58s %9s %11s %10s %7s\n", "configuration", "time", "probe RMSE", "image RMSE",
+  std::printf("%-52s %9s %8s %8s %8s %7s\n", "configuration", "time", "interp.", "at set", "image",
               "Pareto");
   for (const auto& r : st.results)
-    std::printf("%-58s %8.2fs %10.2f%% %9.1f%% %7s\n", r.config.label().c_str(), r.seconds,
-                100 * r.probeRelRmse, 100 * r.imageRelRmse, r.pareto ? "*" : "");
+    std::printf("%-52s %8.2fs %7.2f%% %7.2f%% %7.1f%% %7s\n", r.config.label().c_str(), r.seconds,
+                100 * r.probeRelRmse, 100 * r.setRelRmse, 100 * r.imageRelRmse,
+                r.pareto ? "*" : "");
   std::printf("wrote %s/study.csv, study.md, study.svg\n", a.output.c_str());
   return 0;
 }

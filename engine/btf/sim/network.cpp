@@ -1,6 +1,7 @@
 #include <btf/core/error.h>
 #include <btf/core/rng.h>
 #include <btf/sim/network.h>
+#include <btf/sim/shading.h>
 
 #include <algorithm>
 #include <chrono>
@@ -79,7 +80,7 @@ int PointNetwork::nearest(const Vec3& p, const Vec3& n, int k, uint32_t* idx, fl
   k = std::min(k, 16);
   forNeighbours(p, 2, [&](uint32_t i, const Vec3& d) {
     const float d2 = glm::dot(d, d);
-    if (d2 > maxD2 || glm::dot(m_points[i].ng, n) < 0.3f) return;
+    if (d2 > maxD2 || m_points[i].enclosed || glm::dot(m_points[i].ng, n) < 0.3f) return;
     if (found == k && d2 >= d2s[k - 1]) return;
     int pos = found < k ? found++ : k - 1;
     while (pos > 0 && d2s[pos - 1] > d2) {
@@ -119,17 +120,19 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
   m_nz = std::max(1, int(std::ceil((g.zmax - m_z0) / m_h + 1e-4)));
   m_cz = m_h;
   const size_t voxels = size_t(m_nx) * m_ny * m_nz;
-  if (voxels > (size_t(1) << 27))
+  if (voxels > (size_t(1) << 24))
     throw Error("network voxel grid of " + std::to_string(voxels) +
                 " voxels is too large: lower the network density");
 
-  // 1. Voxelise: each voxel keeps the sub-triangle centroid closest to its centre.
+  // 1. Voxelise: each voxel keeps the sub-triangle centroid closest to its centre — one per
+  // orientation class (the dominant axis of the normal, ±x, ±y, ±z), so that a floor and a wall
+  // sharing a voxel (a mortar gap narrower than a voxel) are both represented.
   struct Cand {
     float d2 = INFINITY;
     uint32_t prim = 0;
     float u = 0, v = 0;
   };
-  std::vector<Cand> best(voxels);
+  std::vector<Cand> best(voxels * 6);
   const float areaThreshold = 0.25f * m_h * m_h;
   struct Sub {
     Vec3 a, b, c;
@@ -141,6 +144,10 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
     const auto& tri = g.mesh.tri[t];
     const Vec3 p0 = g.mesh.pos[tri.x], p1 = g.mesh.pos[tri.y], p2 = g.mesh.pos[tri.z];
     if (!(glm::length(glm::cross(p1 - p0, p2 - p0)) > 1e-12f * m_h * m_h)) continue;
+    const Vec3 fnt = g.faceNormal(t);
+    const Vec3 an = glm::abs(fnt);
+    const int axis = an.x >= an.y && an.x >= an.z ? 0 : an.y >= an.z ? 1 : 2;
+    const int cls = 2 * axis + (fnt[axis] < 0 ? 1 : 0);
     stack.push_back({p0, p1, p2, Vec2(0, 0), Vec2(1, 0), Vec2(0, 1), 0});
     while (!stack.empty()) {
       Sub q = stack.back();
@@ -165,7 +172,7 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
       const Vec3 centre((ix + 0.5f) * m_cx, (iy + 0.5f) * m_cy, m_z0 + (iz + 0.5f) * m_cz);
       const Vec3 d = w - centre;
       const float d2 = glm::dot(d, d);
-      Cand& b = best[(size_t(iz) * m_ny + iy) * m_nx + ix];
+      Cand& b = best[((size_t(iz) * m_ny + iy) * m_nx + ix) * 6 + size_t(cls)];
       if (d2 < b.d2) b = {d2, t, bcen.x, bcen.y};
     }
   }
@@ -184,7 +191,8 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
     q.ns = glm::dot(ns, q.ng) < 0 ? -ns : ns;
     cands.push_back(q);
   }
-  // 3. Prune points closer than the minimum distance (greedy, in voxel order: deterministic).
+  // 3. Prune points closer than the minimum distance among points of similar orientation
+  // (greedy, in voxel order: deterministic).
   m_points = cands;
   buildGrid();
   const float minD2 = (s.minDistance * m_h) * (s.minDistance * m_h);
@@ -192,7 +200,8 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
   for (uint32_t i = 0; i < cands.size(); ++i) {
     if (removed[i]) continue;
     forNeighbours(cands[i].p, 1, [&](uint32_t j, const Vec3& d) {
-      if (j > i && glm::dot(d, d) < minD2) removed[j] = 1;
+      if (j > i && glm::dot(d, d) < minD2 && glm::dot(cands[i].ng, cands[j].ng) > 0.5f)
+        removed[j] = 1;
     });
   }
   m_points.clear();
@@ -206,58 +215,98 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
   const int dirsUsed = side * side;
   const double eps = tracer.epsilon();
   std::vector<std::vector<NetworkLink>> perPoint(m_points.size());
+  struct HitRec {
+    DVec3 p;
+    uint32_t prim;
+    float u, v;
+  };
+  // The point's stratified cosine-weighted rays; returns how many hit a back face.
+  auto traceHits = [&](int64_t i, std::vector<HitRec>& hits, std::vector<DVec3>& hitDirs) {
+    const NetworkPoint& q = m_points[size_t(i)];
+    const Frame fr = Frame::fromNormal(q.ng);
+    const DVec3 origin = DVec3(q.p) + eps * DVec3(q.ng);
+    hits.clear();
+    hitDirs.clear();
+    int back = 0;
+    for (int a = 0; a < side; ++a)
+      for (int c = 0; c < side; ++c) {
+        const uint64_t h = hashKeys(s.seed ^ 0xa1fa, uint64_t(i), uint64_t(a * side + c));
+        const float u1 = (a + uniformFloat(h)) / side, u2 = (c + uniformFloat(mix64(h))) / side;
+        const float r = std::sqrt(u1), phi = 2 * kPiF * u2;
+        const Vec3 dl(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.f, 1 - u1)));
+        const DVec3 d = glm::normalize(DVec3(fr.toWorld(dl)));
+        const RayHit hit = tracer.intersect(origin, d);
+        if (!hit.hit()) continue;
+        back += glm::dot(g.faceNormal(hit.prim), Vec3(d)) > 0;
+        hits.push_back({origin + hit.t * d, hit.prim, hit.u, hit.v});
+        hitDirs.push_back(d);
+      }
+    return back;
+  };
+  // 4a. Points enclosed in a solid (most of their rays meet back faces: the plane under a box)
+  // are never seen; they are marked and left out of every search.
+  parallelForChunks(int64_t(m_points.size()), 16, [&](int64_t b, int64_t e) {
+    std::vector<HitRec> hits;
+    std::vector<DVec3> hitDirs;
+    for (int64_t i = b; i < e; ++i)
+      m_points[size_t(i)].enclosed = 2 * traceHits(i, hits, hitDirs) > dirsUsed;
+  });
+  // 4b. α and links.
   parallelForChunks(
       int64_t(m_points.size()), 16,
       [&](int64_t b, int64_t e) {
-        std::vector<std::pair<Vec3, DVec3>> hits;  // (hit face normal, hit point) with direction
+        std::vector<HitRec> hits;
         std::vector<DVec3> hitDirs;
+        std::vector<int> order;
         for (int64_t i = b; i < e; ++i) {
           NetworkPoint& q = m_points[size_t(i)];
-          const Frame fr = Frame::fromNormal(q.ng);
           const DVec3 origin = DVec3(q.p) + eps * DVec3(q.ng);
-          hits.clear();
-          hitDirs.clear();
-          for (int a = 0; a < side; ++a)
-            for (int c = 0; c < side; ++c) {
-              const uint64_t h = hashKeys(s.seed ^ 0xa1fa, uint64_t(i), uint64_t(a * side + c));
-              const float u1 = (a + uniformFloat(h)) / side,
-                          u2 = (c + uniformFloat(mix64(h))) / side;
-              const float r = std::sqrt(u1), phi = 2 * kPiF * u2;
-              const Vec3 dl(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.f, 1 - u1)));
-              const DVec3 d = glm::normalize(DVec3(fr.toWorld(dl)));
-              const RayHit hit = tracer.intersect(origin, d);
-              if (!hit.hit()) continue;
-              hits.push_back({g.faceNormal(hit.prim), origin + hit.t * d});
-              hitDirs.push_back(d);
-            }
+          if (q.enclosed) {
+            q.alpha = 0;
+            if (progress) progress->add(1);
+            continue;
+          }
+          traceHits(i, hits, hitDirs);
           q.alpha = float(hits.size()) / float(dirsUsed);
           const int nh = int(hits.size());
           const int want = std::min(nh, s.links);
+          // A random subset of the hits, drawn per point (partial Fisher–Yates).
+          order.resize(size_t(nh));
+          for (int k = 0; k < nh; ++k) order[size_t(k)] = k;
+          for (int k = 0; k < want; ++k) {
+            const uint64_t h = hashKeys(s.seed ^ 0x11ce, uint64_t(i), uint64_t(k));
+            const int r = k + int(uniformFloat(h) * float(nh - k));
+            std::swap(order[size_t(k)], order[size_t(std::min(r, nh - 1))]);
+          }
           auto& out = perPoint[size_t(i)];
           for (int k = 0; k < want; ++k) {
-            const int hi = int((int64_t(k) * nh) / want);
+            const int hi = order[size_t(k)];
             const DVec3 d = hitDirs[size_t(hi)];
-            const Vec3 fn = hits[size_t(hi)].first;
-            if (glm::dot(fn, Vec3(d)) > 0) continue;  // back face: no network point there
+            const HitRec& hr = hits[size_t(hi)];
+            NetworkLink link;
+            link.dir = Vec3(d);
+            link.hitP = Vec3(hr.p);
+            link.hitPrim = hr.prim;
+            if (!hitNormals(g, hr.prim, hr.u, hr.v, -Vec3(d), &link.hitNg, &link.hitNs)) continue;
             uint32_t idx[4];
             float w[4];
-            const int nc = nearest(Vec3(hits[size_t(hi)].second), -Vec3(d), 4, idx, w);
+            const int nc = nearest(Vec3(hr.p), link.hitNg, 4, idx, w);
             for (int c = 0; c < nc; ++c) {
               const NetworkPoint& t = m_points[idx[c]];
               // The target's periodic image nearest to the hit.
               DVec3 img(t.p);
-              const DVec3 hp = hits[size_t(hi)].second;
-              img.x += std::round((hp.x - img.x) / g.Lx) * g.Lx;
-              img.y += std::round((hp.y - img.y) / g.Ly) * g.Ly;
+              img.x += std::round((hr.p.x - img.x) / g.Lx) * g.Lx;
+              img.y += std::round((hr.p.y - img.y) / g.Ly) * g.Ly;
               const DVec3 seg = img + eps * DVec3(t.ng) - origin;
               const double dist = glm::length(seg);
               if (!(dist > 4 * eps)) continue;
               const DVec3 dir = seg / dist;
               if (glm::dot(Vec3(dir), q.ng) <= 0 || glm::dot(Vec3(dir), t.ng) >= 0) continue;
               if (tracer.occluded(origin, dir, 0, dist - 2 * eps)) continue;
-              out.push_back({idx[c], Vec3(dir)});
+              link.target = idx[c];
               break;
             }
+            out.push_back(link);
           }
           if (progress) progress->add(1);
         }
@@ -306,15 +355,23 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
   }
   std::vector<uint32_t> transferStart(nLk + 1, 0);
   for (size_t e = 0; e < nLk; ++e) {
-    const NetworkPoint& j = pts[links[e].target];
+    const uint32_t t = links[e].target;
     transferStart[e + 1] =
-        transferStart[e] + (isGlossy(*mat[links[e].target]) ? j.linkEnd - j.linkBegin : 0);
+        transferStart[e] +
+        (t != kNoTarget && isGlossy(*mat[t]) ? pts[t].linkEnd - pts[t].linkBegin : 0);
+  }
+  // Materials and frames at the exact hits (first order).
+  std::vector<const Material*> hitMat(nLk);
+  std::vector<Frame> hitFrame(nLk);
+  for (size_t e = 0; e < nLk; ++e) {
+    hitMat[e] = &materials[geom.triMaterial[links[e].hitPrim]];
+    hitFrame[e] = Frame::fromNormal(links[e].hitNs);
   }
   std::vector<Rgb> transfer(transferStart[nLk]);
   parallelForChunks(int64_t(nLk), 256, [&](int64_t b, int64_t e) {
     for (int64_t x = b; x < e; ++x) {
-      const uint32_t jt = links[size_t(x)].target;
       if (transferStart[x + 1] == transferStart[x]) continue;
+      const uint32_t jt = links[size_t(x)].target;
       const NetworkPoint& j = pts[jt];
       const Vec3 out = frame[jt].toLocal(-links[size_t(x)].dir);
       for (uint32_t q = j.linkBegin; q < j.linkEnd; ++q)
@@ -326,17 +383,18 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
   parallelForChunks(
       lightLimit > 0 ? std::min(lightLimit, m_nL) : m_nL, 1,
       [&](int64_t lb, int64_t le) {
-        std::vector<float> edir(nP);
+        std::vector<float> ehit(nLk);
         std::vector<Rgb> lin(nLk), linPrev(nLk), eOrder(nP), eTot(nP);
         std::vector<Vec3> dsum(directional ? nP : 0);
         for (int64_t l = lb; l < le; ++l) {
           const Vec3 w(dirs[int(l)].w);
           const float invCos = 1.0f / float(std::max(dirs[int(l)].w.z, 1e-7));
-          for (size_t k = 0; k < nP; ++k) {
-            const float c = glm::dot(pts[k].ns, w);
-            edir[k] = 0;
-            if (c > 0 && glm::dot(pts[k].ng, w) > 0)
-              edir[k] = c * visibility(int(l), pts[k].p, pts[k].ng, pts[k].prim);
+          for (size_t e = 0; e < nLk; ++e) {
+            const NetworkLink& lk = links[e];
+            const float c = glm::dot(lk.hitNs, w);
+            ehit[e] = 0;
+            if (c > 0 && glm::dot(lk.hitNg, w) > 0)
+              ehit[e] = c * visibility(int(l), lk.hitP, lk.hitNg, lk.hitPrim);
           }
           std::fill(eTot.begin(), eTot.end(), Rgb(0));
           if (directional) std::fill(dsum.begin(), dsum.end(), Vec3(0));
@@ -344,16 +402,18 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
             // Radiance arriving along each link: what its target sends back toward the source.
             for (size_t e = 0; e < nLk; ++e) {
               const uint32_t j = links[e].target;
-              const Material& m = *mat[j];
               Rgb L(0);
               if (order == 1) {
-                if (edir[j] > 0) {
-                  L = m.kdOverPi * edir[j];
-                  if (transferStart[e + 1] > transferStart[e])
-                    L += evalGlossy(m, frame[j].toLocal(w), frame[j].toLocal(-links[e].dir)) *
-                         edir[j];
+                if (ehit[e] > 0) {
+                  const Material& hm = *hitMat[e];
+                  L = hm.kdOverPi * ehit[e];
+                  if (isGlossy(hm))
+                    L +=
+                        evalGlossy(hm, hitFrame[e].toLocal(w), hitFrame[e].toLocal(-links[e].dir)) *
+                        ehit[e];
                 }
-              } else {
+              } else if (j != kNoTarget) {
+                const Material& m = *mat[j];
                 L = m.kdOverPi * eOrder[j];
                 const uint32_t t0 = transferStart[e], t1 = transferStart[e + 1];
                 if (t1 > t0) {

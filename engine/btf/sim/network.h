@@ -8,9 +8,11 @@
 //    the cosine-weighted fraction of them that hit geometry — the *occluded* fraction, because
 //    light only arrives from other surfaces (the BTF's light is directional and the open sky is
 //    black), so the occluded part of the hemisphere is exactly where indirect light comes from;
-//  * links: among the occluded directions, up to `links` evenly spread ones; each hit is snapped
-//    to the nearest network point facing the ray (the form-factor importance: same side, nearest)
-//    and the link re-tested for visibility. Links cross tile sides (periodic images).
+//  * links: among the occluded directions, up to `links` chosen at random (per point, without
+//    replacement — a fixed pattern shared by all points biases every point the same way); each
+//    link keeps its exact hit, used for the first-order light, and the nearest network point
+//    facing the ray (the form-factor importance: same side, nearest), re-tested for
+//    visibility, which carries the higher orders. Links cross tile sides (periodic images).
 //
 // Per light (reused by every view and texel): direct irradiance of each point from the light's
 // shadow map (fig. 4.9), then P − 1 propagations along the links, L_ind_k of the expansion
@@ -47,13 +49,21 @@ struct NetworkPoint {
   Vec3 ng;  // unit geometric normal (the triangle's orientation: the network is one-sided)
   Vec3 ns;  // unit shading normal on the same side
   uint32_t prim = 0;
-  float alpha = 0;  // cosine-weighted occluded fraction of the hemisphere
+  float alpha = 0;        // cosine-weighted occluded fraction of the hemisphere
+  bool enclosed = false;  // inside a solid (most rays meet back faces): never used
   uint32_t linkBegin = 0, linkEnd = 0;
 };
 
+inline constexpr uint32_t kNoTarget = 0xffffffffu;
+
 struct NetworkLink {
-  uint32_t target = 0;
-  Vec3 dir;  // unit, from the point to the target's periodic image it sees
+  uint32_t target = kNoTarget;  // network point standing for the hit (kNoTarget: none visible)
+  Vec3 dir;                     // unit direction of the sampled ray
+  // The exact hit of the ray: first-order light is evaluated there, so that shadow boundaries
+  // are not moved by snapping; higher orders use the target's (smooth) indirect irradiance.
+  Vec3 hitP;          // hit position (unwrapped: may lie in a neighbouring tile)
+  Vec3 hitNg, hitNs;  // normals at the hit, facing back along the ray (two-sided surfaces)
+  uint32_t hitPrim = 0;
 };
 
 class PointNetwork {

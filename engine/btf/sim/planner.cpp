@@ -82,7 +82,8 @@ EffectPlan planEffects(const PeriodicTracer& tracer, const std::vector<Material>
   if (net && !net->points().empty()) {
     const auto& pts = net->points();
     const size_t stride = std::max<size_t>(1, pts.size() / 4096);
-    for (size_t i = 0; i < pts.size(); i += stride) probes.push_back({pts[i].p, pts[i].ng});
+    for (size_t i = 0; i < pts.size(); i += stride)
+      if (!pts[i].enclosed) probes.push_back({pts[i].p, pts[i].ng});
   } else {
     const int n = 32;
     for (int b = 0; b < n; ++b)

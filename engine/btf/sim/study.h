@@ -27,12 +27,15 @@ struct StudyConfig {
 struct StudyResult {
   StudyConfig config;
   double seconds = 0, precomputeSeconds = 0, renderSeconds = 0;
-  double probeRelRmse = 0;  // texel-averaged aBRDF at the probes vs the reference
+  double probeRelRmse = 0;  // texel-averaged aBRDF interpolated at the probes vs the reference
+  double setRelRmse = 0;    // the same at the probes snapped to the set's own directions (no
+                            // interpolation: the simulation's error alone)
   double probeMaxRel = 0;   // worst probe, relative to its own reference value (|ref| > 1e-3)
   double imageRelRmse = 0;  // per-texel images vs the reference images
   size_t networkPoints = 0;
   uint64_t peakRssBytes = 0;
   std::vector<Rgb> probeValues;  // the configuration's texel-averaged aBRDF at each probe
+  std::vector<Rgb> setValues, setReference;  // at the snapped probes, and their reference
   bool pareto = false;
 };
 

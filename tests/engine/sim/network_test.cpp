@@ -1,0 +1,461 @@
+// Global illumination with the point network against the path tracer, energy conservation,
+// reciprocity, hard cases, and every effect-planner decision (off where it changes nothing, on
+// where it must be).
+#include <btf/core/error.h>
+#include <btf/geometry/tile_builder.h>
+#include <btf/sim/network.h>
+#include <btf/sim/path_tracer.h>
+#include <btf/sim/simulator.h>
+#include <btf/store/btf_store.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "test_util.h"
+
+namespace btf {
+namespace {
+
+std::string scene(const std::string& materials, const std::string& parts) {
+  return R"({"btfscene": 1, "materials": )" + materials + R"(, "parts": )" + parts + "}";
+}
+std::string lambert(double rho) {
+  const std::string a = std::to_string(rho);
+  return R"({"m": {"type": "lambert", "albedo": [)" + a + "," + a + "," + a + "]}}";
+}
+const char* kVGroove = R"([{"type": "vgrooves", "material": "m", "count": 2, "depth": 0.5}])";
+const char* kCavity = R"([{"type": "plane", "material": "m"},
+  {"type": "box", "material": "m", "center": [0.5, 0.05, 0.25], "size": [1.0, 0.1, 0.5]},
+  {"type": "box", "material": "m", "center": [0.05, 0.5, 0.25], "size": [0.1, 1.0, 0.5]}])";
+const char* kFlat = R"([{"type": "plane", "material": "m", "height": 0.1}])";
+const char* kSine = R"([{"type": "sine", "material": "m", "amplitude": 0.15, "periods": [2, 0]}])";
+
+Scene brick() {
+  return test::sceneFromJson(test::readFile(test::sourceDir() + "/resources/scenes/brick.json"));
+}
+
+struct SimRun {
+  std::vector<double> avg;  // tile average [view][light][rgb]
+  std::vector<float> all;   // every value [texel][view][light][rgb]
+  int n = 0;
+  EffectPlan plan;
+  size_t points = 0;
+  Rgb at(int view, int light) const {
+    const size_t k = (size_t(view) * n + size_t(light)) * 3;
+    return Rgb(avg[k], avg[k + 1], avg[k + 2]);
+  }
+};
+
+SimRun simulate(const Scene& s, SimOptions o, std::unique_ptr<SimulationJob>* keep = nullptr) {
+  o.progress = false;
+  auto job = std::make_unique<SimulationJob>(s, o);
+  SimRun r;
+  r.n = job->directions().size();
+  const size_t stride = size_t(r.n) * r.n * 3;
+  r.avg.assign(stride, 0.0);
+  r.all.resize(size_t(o.nu) * o.nv * stride);
+  job->setChunkSink([&](int, int64_t t0, int64_t t1, const float* v) {
+    std::copy(v, v + size_t(t1 - t0) * stride, r.all.begin() + ptrdiff_t(size_t(t0) * stride));
+  });
+  const SimEstimate e = job->estimate("");
+  const SimReport rep = job->run("", e);
+  for (size_t t = 0; t < size_t(o.nu) * o.nv; ++t)
+    for (size_t k = 0; k < stride; ++k) r.avg[k] += r.all[t * stride + k];
+  for (double& x : r.avg) x /= double(o.nu) * o.nv;
+  r.plan = job->plan();
+  r.points = rep.networkPoints;
+  if (keep) *keep = std::move(job);
+  return r;
+}
+
+SimOptions opts(int texels, const std::string& dirs, int spp, int P, int voxels = 0) {
+  SimOptions o;
+  o.nu = o.nv = texels;
+  o.directions = dirs;
+  o.spp = spp;
+  o.plan.interreflection = P > 1 ? Toggle::On : Toggle::Off;
+  o.plan.bounces = P > 1 ? P : 0;
+  o.network.voxels = voxels;
+  return o;
+}
+
+// Albedo of the tile under light l: Σ_v aBRDF(v, l) cos θv Ω_v (first channel).
+double albedo(const SimRun& r, const DirectionSet& d, int l) {
+  double a = 0;
+  for (int v = 0; v < d.size(); ++v) a += r.at(v, l).x * d[v].w.z * d[v].solidAngle;
+  return a;
+}
+
+TEST(Network, EnergyMonotoneInPathLengthBoundedAndConvergesToPathTracer) {
+  const DirectionSet d = DirectionSet::fromName("8x16");
+  for (const char* parts : {kVGroove, kCavity})
+    for (double rho : {0.6, 1.0}) {
+      SCOPED_TRACE(std::string(parts).substr(0, 40) + " ρ=" + std::to_string(rho));
+      const Scene s = test::sceneFromJson(scene(lambert(rho), parts));
+      const int light = 2 * 16 + 3;  // θ ≈ 28°
+      double prev = 0;
+      std::vector<double> a;
+      for (int P : {1, 2, 3, 6}) {
+        const SimRun r = simulate(s, opts(16, "8x16", 2, P, 32));
+        a.push_back(albedo(r, d, light));
+        EXPECT_GT(a.back(), prev + 1e-4) << "P=" << P;
+        EXPECT_LE(a.back(), 1.02) << "P=" << P;
+        prev = a.back();
+      }
+      // Path-traced reference of the same quantity: every view of the set, light fixed.
+      std::unique_ptr<SimulationJob> job;
+      const SimRun any = simulate(s, opts(4, "8x16", 1, 1), &job);
+      std::vector<DirectionPair> pairs;
+      for (int v = 0; v < d.size(); ++v) pairs.push_back({d[light].w, d[v].w});
+      PathSettings ps;
+      ps.maxBounces = 6;
+      const auto ref = pathTracedBrdf(job->tracer(), job->materials(), pairs, 48, 1, ps);
+      double aRef = 0;
+      for (int v = 0; v < d.size(); ++v) aRef += ref[size_t(v)].x * d[v].w.z * d[v].solidAngle;
+      std::printf("  albedo P=1,2,3,6: %.4f %.4f %.4f %.4f; path tracer P=6: %.4f\n", a[0], a[1],
+                  a[2], a[3], aRef);
+      EXPECT_NEAR(a[3], aRef, 0.025 * aRef);
+      EXPECT_LT(std::abs(a[3] - aRef), std::abs(a[1] - aRef));
+    }
+}
+
+TEST(Network, ZeroAlbedoGivesExactlyZeroIndirect) {
+  const Scene s = test::sceneFromJson(scene(lambert(0.0), kCavity));
+  std::unique_ptr<SimulationJob> job;
+  const SimRun on = simulate(s, opts(8, "bonn81", 1, 4), &job);
+  ASSERT_TRUE(on.plan.interreflection);
+  const SimRun off = simulate(s, opts(8, "bonn81", 1, 1));
+  EXPECT_EQ(on.all, off.all);
+  NetworkLighting L;
+  L.solve(
+      *job->network(), job->geometry(), job->materials(), job->directions(),
+      [](int, const Vec3&, const Vec3&, uint32_t) { return 1.0f; }, 4, false);
+  size_t nonzero = 0;
+  for (uint32_t k = 0; k < job->network()->points().size(); ++k)
+    for (int c = 0; c < job->directions().size() * 3; ++c) nonzero += L.irradiance(k)[c] != 0;
+  EXPECT_EQ(nonzero, 0u);
+}
+
+TEST(Network, AgreesWithPathTracerOnVGroovesSineAndBrick) {
+  struct Case {
+    const char* name;
+    Scene s;
+    double tol;
+  };
+  std::vector<Case> cases = {
+      {"vgrooves", test::sceneFromJson(scene(lambert(0.8), kVGroove)), 0.015},
+      {"sine", test::sceneFromJson(scene(lambert(0.8), kSine)), 0.015},
+      {"brick", brick(), 0.015},
+  };
+  for (auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    std::unique_ptr<SimulationJob> job;
+    const SimRun r = simulate(c.s, opts(32, "bonn81", 2, 4), &job);
+    const DirectionSet& d = job->directions();
+    std::vector<DirectionPair> pairs;
+    std::vector<std::pair<int, int>> idx;
+    for (int l = 0; l < d.size(); l += 7)
+      for (int v = 0; v < d.size(); v += 5)
+        if (d[l].theta < deg2rad(76) && d[v].theta < deg2rad(76)) {
+          pairs.push_back({d[l].w, d[v].w});
+          idx.push_back({v, l});
+        }
+    PathSettings ps;
+    ps.maxBounces = 4;
+    const auto ref = pathTracedBrdf(job->tracer(), job->materials(), pairs, 64, 1, ps);
+    PathSettings p1 = ps;
+    p1.maxBounces = 1;
+    const auto ref1 = pathTracedBrdf(job->tracer(), job->materials(), pairs, 64, 1, p1);
+    double err = 0, norm = 0, gi = 0;
+    for (size_t k = 0; k < pairs.size(); ++k) {
+      const Rgb x = r.at(idx[k].first, idx[k].second), y = ref[k];
+      err += double(glm::dot(x - y, x - y));
+      norm += double(glm::dot(y, y));
+      gi += double(glm::dot(y - ref1[k], y - ref1[k]));
+    }
+    const double rel = std::sqrt(err / norm), giShare = std::sqrt(gi / norm);
+    std::printf(
+        "  %s: network vs path tracer (P = 4) relative RMSE %.2f %% over %zu pairs; the "
+        "inter-reflection itself is %.2f %%\n",
+        c.name, 100 * rel, pairs.size(), 100 * giShare);
+    EXPECT_LT(rel, c.tol);
+  }
+}
+
+TEST(Network, ReciprocityOfTheTileAverageWithGI) {
+  for (const char* parts : {kSine, kVGroove}) {
+    SCOPED_TRACE(parts);
+    const Scene s = test::sceneFromJson(scene(lambert(0.8), parts));
+    const SimRun r = simulate(s, opts(32, "bonn81", 3, 3));
+    const DirectionSet d = DirectionSet::fromName("bonn81");
+    double worst = 0;
+    for (int a = 0; a < d.size(); a += 3)
+      for (int b = a + 1; b < d.size(); b += 4) {
+        if (d[a].theta > deg2rad(60) || d[b].theta > deg2rad(60)) continue;
+        const float x = r.at(a, b).x, y = r.at(b, a).x;
+        if (std::max(x, y) < 0.02f) continue;
+        const double gap = double(std::abs(x - y) / std::max(x, y));
+        worst = std::max(worst, gap);
+      }
+    std::printf("  worst reciprocity gap %.2f %%\n", 100 * worst);
+    EXPECT_LT(worst, 0.035);
+  }
+}
+
+TEST(Network, HardCasesStayFinite) {
+  // Albedo 1 with many bounces, near-mirror lobes, coincident points (the same part twice),
+  // grazing light at 89.9°, degenerate triangles.
+  const char* mirror =
+      R"({"m": {"type": "cook_torrance", "diffuse": [0.2, 0.2, 0.2], "specular": 1,
+                "roughness": 0.01, "fresnel": "none"}})";
+  const std::string twice = R"([{"type": "vgrooves", "material": "m", "count": 2, "depth": 0.5},
+                                {"type": "vgrooves", "material": "m", "count": 2, "depth": 0.5}])";
+  for (const auto& [mats, parts, P] : std::vector<std::tuple<std::string, std::string, int>>{
+           {lambert(1.0), kCavity, 30}, {mirror, kVGroove, 4}, {lambert(0.9), twice, 4}}) {
+    const Scene s = test::sceneFromJson(scene(mats, parts));
+    std::unique_ptr<SimulationJob> job;
+    const SimRun r = simulate(s, opts(8, "bonn81", 1, P), &job);
+    size_t bad = 0;
+    for (float v : r.all) bad += !std::isfinite(v) || v < 0;
+    EXPECT_EQ(bad, 0u);
+    // Grazing light on the network itself.
+    const DirectionSet g = DirectionSet::fromRings("grazing", {{89.9, 4, 0}, {0, 1, 0}});
+    NetworkLighting L;
+    L.solve(
+        *job->network(), job->geometry(), job->materials(), g,
+        [](int, const Vec3&, const Vec3&, uint32_t) { return 1.0f; }, P, true);
+    for (uint32_t k = 0; k < job->network()->points().size(); ++k)
+      for (int c = 0; c < g.size() * 3; ++c) {
+        ASSERT_TRUE(std::isfinite(L.irradiance(k)[c]));
+        ASSERT_TRUE(std::isfinite(L.direction(k)[c]));
+      }
+  }
+  // Albedo 1, thirty reflections: the tile reflects what came in, no more (the 8×16 grid's
+  // quadrature and 16² spp 2 sampling are good to ~2 %, see the energy test).
+  {
+    const Scene s = test::sceneFromJson(scene(lambert(1.0), kCavity));
+    const DirectionSet d = DirectionSet::fromName("8x16");
+    const SimRun r = simulate(s, opts(16, "8x16", 2, 30, 32));
+    const double a = albedo(r, d, 2 * 16 + 3);
+    std::printf("  albedo-1 cavity, P = 30: %.4f\n", a);
+    EXPECT_LT(a, 1.02);
+    EXPECT_GT(a, 0.9);
+  }
+  // Degenerate triangles in the geometry: the network skips them.
+  Scene s = test::sceneFromJson(scene(lambert(1.0), kCavity));
+  TileGeometry g = buildTileGeometry(s);
+  const uint32_t b = uint32_t(g.mesh.pos.size());
+  for (Vec3 p : {Vec3(0.2f, 0.2f, 0.3f), Vec3(0.8f, 0.8f, 0.3f), Vec3(0.5f, 0.5f, 0.3f)}) {
+    g.mesh.pos.push_back(p);
+    g.mesh.nrm.push_back(Vec3(0, 0, 1));
+  }
+  g.mesh.tri.push_back({b, b, b + 1});
+  g.mesh.tri.push_back({b, b + 1, b + 2});
+  g.triMaterial.resize(g.mesh.tri.size(), 0);
+  g.triPart.resize(g.mesh.tri.size(), 0);
+  PeriodicTracer tracer(g);
+  PointNetwork net;
+  NetworkSettings ns;
+  ns.voxels = 16;
+  net.build(tracer, ns);
+  EXPECT_GT(net.points().size(), 100u);
+  for (const auto& p : net.points()) {
+    ASSERT_TRUE(finite3(p.p) && finite3(p.ng) && finite3(p.ns));
+    ASSERT_NE(p.prim, b / 3 + 100000);  // not a degenerate one
+    ASSERT_LT(p.prim, g.triangleCount() - 2);
+  }
+}
+
+TEST(Network, NetworkIsDeterministicAndPruned) {
+  const Scene s = brick();
+  const TileGeometry g = buildTileGeometry(s);
+  PeriodicTracer t(g);
+  NetworkSettings ns;
+  ns.voxels = 32;
+  PointNetwork a, b;
+  a.build(t, ns);
+  {
+    ThreadLimit one(1);
+    b.build(t, ns);
+  }
+  ASSERT_EQ(a.points().size(), b.points().size());
+  ASSERT_EQ(a.links().size(), b.links().size());
+  for (size_t i = 0; i < a.points().size(); ++i) {
+    EXPECT_EQ(a.points()[i].p, b.points()[i].p);
+    EXPECT_EQ(a.points()[i].alpha, b.points()[i].alpha);
+  }
+  // Minimum distance: no two points of similar orientation closer than half a voxel.
+  const float h = a.voxelSize(), minD = 0.5f * h;
+  int close = 0;
+  for (size_t i = 0; i < a.points().size(); ++i)
+    for (size_t j = i + 1; j < a.points().size(); ++j) {
+      Vec3 d = a.points()[i].p - a.points()[j].p;
+      d.x -= std::round(d.x);
+      d.y -= std::round(d.y);
+      close +=
+          glm::length(d) < minD * 0.999f && glm::dot(a.points()[i].ng, a.points()[j].ng) > 0.5f;
+    }
+  EXPECT_EQ(close, 0);
+  // α is the occluded fraction: 0 on brick tops (open sky), large in the mortar gaps.
+  double top = -1, gap = 0;
+  for (const auto& p : a.points()) {
+    if (p.p.z > 0.099f && p.ng.z > 0.99f) top = std::max(top, double(p.alpha));
+    if (p.p.z < 0.001f && p.ng.z > 0.99f) gap = std::max(gap, double(p.alpha));
+  }
+  EXPECT_EQ(top, 0.0);
+  EXPECT_GT(gap, 0.5);
+  // Links leave a point on its side, end on a surface facing back, and most have a target
+  // network point that faces the link.
+  size_t targets = 0;
+  for (const auto& p : a.points())
+    for (uint32_t e = p.linkBegin; e < p.linkEnd; ++e) {
+      const auto& L = a.links()[e];
+      EXPECT_GT(glm::dot(L.dir, p.ng), 0);
+      EXPECT_LE(glm::dot(L.dir, L.hitNg), 0);
+      if (L.target == kNoTarget) continue;
+      ++targets;
+      EXPECT_LT(glm::dot(L.dir, a.points()[L.target].ng), 0);
+    }
+  EXPECT_GT(double(targets), 0.9 * double(a.links().size()));
+}
+
+// ---- Planner decisions: off where nothing changes, on where it must be -----------------------
+
+TEST(Planner, FlatTileTurnsShadowsGIAndVmfOffWithoutChangingTheResult) {
+  const Scene s = test::sceneFromJson(scene(lambert(0.7), kFlat));
+  SimOptions autoOpt = opts(8, "bonn81", 1, 1);
+  autoOpt.plan.interreflection = Toggle::Auto;
+  const SimRun a = simulate(s, autoOpt);
+  EXPECT_TRUE(a.plan.flat);
+  EXPECT_FALSE(a.plan.selfShadowing);
+  EXPECT_FALSE(a.plan.interreflection);
+  EXPECT_FALSE(a.plan.vmf);
+  EXPECT_EQ(a.plan.channels, 1);
+  SimOptions forced = autoOpt;
+  forced.plan.selfShadowing = Toggle::On;
+  forced.plan.interreflection = Toggle::On;
+  forced.plan.bounces = 3;
+  forced.plan.vmf = Toggle::On;
+  const SimRun f = simulate(s, forced);
+  EXPECT_TRUE(f.plan.interreflection && f.plan.selfShadowing);
+  ASSERT_EQ(a.all.size(), f.all.size());
+  double worst = 0;
+  for (size_t k = 0; k < a.all.size(); ++k)
+    worst = std::max(worst, double(std::abs(a.all[k] - f.all[k])));
+  EXPECT_LT(worst, 1e-6);
+  // The store of a flat tile has no VMF, and says so.
+  const auto dir = test::tempDir("planner_flat");
+  std::string out;
+  ASSERT_EQ(test::runBtfsim("simulate " + (dir / "flat.json").string() + " -o " +
+                                (dir / "f.btf").string() + " --texels 4 -q",
+                            &out),
+            1);  // no such scene yet: a clear error
+  { std::ofstream(dir / "flat.json") << scene(lambert(0.7), kFlat); }
+  ASSERT_EQ(test::runBtfsim("simulate " + (dir / "flat.json").string() + " -o " +
+                                (dir / "f.btf").string() + " --texels 4 -q",
+                            &out),
+            0)
+      << out;
+  BtfReader r((dir / "f.btf").string());
+  EXPECT_FALSE(r.info().hasVmf);
+  try {
+    r.readVmf(0);
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no visibility map"), std::string::npos);
+  }
+}
+
+TEST(Planner, ConvexSceneTurnsGIOffAndTheBtfEqualsTheGIOnBtf) {
+  // A gentle sine seen from a coarse set: bumps are convex where they face up, but the troughs
+  // see the crests, so the test uses a flat-topped convex case — a single plane, tilted by a
+  // mesh-free part: boxes too thin to see each other.
+  const Scene s = test::sceneFromJson(scene(lambert(0.9), kFlat));
+  SimOptions o = opts(8, "bonn81", 1, 1);
+  o.plan.interreflection = Toggle::Auto;
+  const SimRun off = simulate(s, o);
+  EXPECT_FALSE(off.plan.interreflection);
+  o.plan.interreflection = Toggle::On;
+  o.plan.bounces = 4;
+  const SimRun on = simulate(s, o);
+  EXPECT_EQ(off.all, on.all);
+}
+
+TEST(Planner, CavitiesKeepEveryEffectOn) {
+  const SimRun r = simulate(brick(), [] {
+    SimOptions o = opts(16, "bonn81", 1, 1);
+    o.plan.interreflection = Toggle::Auto;
+    return o;
+  }());
+  EXPECT_FALSE(r.plan.flat);
+  EXPECT_TRUE(r.plan.selfShadowing);
+  EXPECT_TRUE(r.plan.interreflection);
+  EXPECT_GE(r.plan.bounces, 2);
+  EXPECT_EQ(r.plan.channels, 3);
+  EXPECT_TRUE(r.plan.vmf);
+  // And each matters: without shadows or without inter-reflection the BTF changes.
+  SimOptions noShadow = opts(16, "bonn81", 1, r.plan.bounces);
+  noShadow.plan.selfShadowing = Toggle::Off;
+  const SimRun ns = simulate(brick(), noShadow);
+  const SimRun full = simulate(brick(), opts(16, "bonn81", 1, r.plan.bounces));
+  const SimRun direct = simulate(brick(), opts(16, "bonn81", 1, 1));
+  double dShadow = 0, dGi = 0, norm = 0;
+  for (size_t k = 0; k < full.avg.size(); ++k) {
+    dShadow += std::abs(full.avg[k] - ns.avg[k]);
+    dGi += std::abs(full.avg[k] - direct.avg[k]);
+    norm += std::abs(full.avg[k]);
+  }
+  EXPECT_GT(dShadow / norm, 0.02);
+  EXPECT_GT(dGi / norm, 0.005);
+}
+
+TEST(Planner, BounceCountFromTheEnergyBound) {
+  // Sine: orders decay fast, the plan stops early; forcing more bounces changes the tile
+  // average by less than the planner's ε.
+  const Scene s = test::sceneFromJson(scene(lambert(0.5), kSine));
+  SimOptions o = opts(16, "bonn81", 1, 1);
+  o.plan.interreflection = Toggle::Auto;
+  const SimRun a = simulate(s, o);
+  ASSERT_TRUE(a.plan.interreflection);
+  EXPECT_LT(a.plan.bounces, o.plan.maxAutoBounces);
+  const SimRun many = simulate(s, opts(16, "bonn81", 1, 8));
+  double diff = 0, norm = 0;
+  for (size_t k = 0; k < a.avg.size(); ++k) {
+    diff += std::abs(a.avg[k] - many.avg[k]);
+    norm += std::abs(many.avg[k]);
+  }
+  EXPECT_LT(diff / norm, o.plan.epsilon);
+  // An albedo-1 cavity keeps every order up to the cap.
+  const Scene c = test::sceneFromJson(scene(lambert(1.0), kCavity));
+  const SimRun b = simulate(c, o);
+  EXPECT_EQ(b.plan.bounces, o.plan.maxAutoBounces);
+}
+
+TEST(Planner, GreySceneNeedsOneChannel) {
+  const Scene s = test::sceneFromJson(scene(lambert(0.6), kSine));
+  const SimRun r = simulate(s, opts(8, "bonn81", 1, 3));
+  EXPECT_EQ(r.plan.channels, 1);
+  for (size_t k = 0; k < r.all.size(); k += 3) {
+    ASSERT_EQ(r.all[k], r.all[k + 1]);
+    ASSERT_EQ(r.all[k], r.all[k + 2]);
+  }
+  EXPECT_EQ(simulate(brick(), opts(4, "bonn81", 1, 1)).plan.channels, 3);
+}
+
+TEST(Planner, ForcedFlagsAndBadValuesAreClearErrors) {
+  std::string out;
+  const std::string sc = test::sourceDir() + "/resources/scenes/brick.json";
+  EXPECT_EQ(test::runBtfsim("plan " + sc + " --interreflection maybe", &out), 1);
+  EXPECT_NE(out.find("--interreflection"), std::string::npos) << out;
+  EXPECT_EQ(test::runBtfsim("plan " + sc + " --colour off", &out), 1);
+  EXPECT_NE(out.find("coloured"), std::string::npos) << out;
+  EXPECT_EQ(test::runBtfsim("plan " + sc + " --texels 16 --bounces 2 --self-shadowing off", &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("[forced]"), std::string::npos) << out;
+  EXPECT_NE(out.find("interreflection"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace btf
