@@ -25,7 +25,7 @@ EffectDecision* EffectPlan::find(const std::string& effect) {
   return nullptr;
 }
 
-std::string EffectPlan::toJson() const {
+std::string EffectPlan::toJson(bool withTimes) const {
   nlohmann::ordered_json j;
   j["effects"]["direct"] = true;
   j["effects"]["self_shadowing"] = selfShadowing;
@@ -46,7 +46,7 @@ std::string EffectPlan::toJson() const {
     e["value"] = d.value;
     e["reason"] = d.reason;
     e["forced"] = d.forced;
-    e["seconds_saved"] = d.secondsSaved;
+    if (withTimes) e["seconds_saved"] = d.secondsSaved;
     j["decisions"].push_back(e);
   }
   return j.dump();

@@ -47,7 +47,9 @@ struct EffectPlan {
   int64_t occlusionTests = 0, occludedTests = 0;
   std::vector<EffectDecision> decisions;
   EffectDecision* find(const std::string& effect);
-  std::string toJson() const;
+  /// JSON of the plan; `withTimes` adds each decision's estimated saving (not deterministic, so
+  /// the BTF header leaves it out: a resumed run must see the same header).
+  std::string toJson(bool withTimes = true) const;
 };
 
 /// Decides every effect. `net` may be empty when no network was built (inter-reflection then

@@ -121,7 +121,7 @@ BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
   i.sceneName = m_scene.name;
   i.sceneHash = sceneHash();
   i.sceneJson = sceneToJson(m_scene);
-  nlohmann::ordered_json plan = nlohmann::ordered_json::parse(pl.toJson());
+  nlohmann::ordered_json plan = nlohmann::ordered_json::parse(pl.toJson(false));
   plan["method"] = m_opt.method;
   if (m_opt.method == "pt") plan["pt_paths_per_sample"] = m_opt.ptPaths;
   if (m_opt.method == "network" && pl.interreflection) {
