@@ -41,6 +41,8 @@ int main(int argc, char** argv) {
   s->add_option("--threads", sim.threads, "worker threads (default: all cores)");
   s->add_option("--seed", sim.seed, "jitter seed");
   s->add_option("--memory-budget", sim.memoryBudget, "memory budget, e.g. 4G, 512M");
+  s->add_option("--chunk-texels", sim.chunkTexels,
+                "at most this many texels per chunk (resume granularity; 0 = from the budget)");
   addEffectOptions(s, sim.effects);
   s->add_flag("--resume", sim.resume, "continue an interrupted run from OUTPUT.partial");
   s->add_flag("--json", sim.json, "print a JSON summary on stdout");
@@ -103,6 +105,8 @@ int main(int argc, char** argv) {
   sy->add_option("-o,--output", st.output, "output folder (study.csv, study.md, study.svg)")
       ->required();
   sy->add_option("--texels", st.texels, "texels of every run");
+  sy->add_option("--method", st.methods, "methods: network, pt (first = base)");
+  sy->add_option("--paths", st.paths, "pt: paths per texel sample");
   sy->add_option("--dirs", st.dirs, "direction sets, comma-separated (first = base)");
   sy->add_option("--spp", st.spp, "K values");
   sy->add_option("--shadows", st.shadows, "shadow modes: map, rays");

@@ -103,6 +103,8 @@ int simulate(const SimulateArgs& a) {
   applyEffects(a.effects, &o);
   o.shadowBias = float(a.bias);
   o.memoryBudget = parseBytes(a.memoryBudget);
+  if (a.chunkTexels < 0) throw Error("invalid --chunk-texels: must be >= 0");
+  o.maxChunkTexels = a.chunkTexels;
   o.resume = a.resume;
   o.progress = !a.quiet;
   ThreadLimit limit(a.threads);
@@ -559,6 +561,11 @@ int study(const StudyArgs& a) {
   const Scene scene = loadScene(a.scene);
   StudyOptions o;
   parseTexels(a.texels, &o.nu, &o.nv);
+  o.methods = splitList(a.methods, "--method");
+  for (const auto& m : o.methods)
+    if (m != "network" && m != "pt")
+      throw Error("invalid --method value '" + m + "': expected network or pt");
+  o.paths = intList(a.paths, "--paths", 1, 4096);
   o.dirs = splitList(a.dirs, "--dirs");
   for (const auto& d : o.dirs) DirectionSet::fromName(d);  // validate early
   o.spp = intList(a.spp, "--spp", 1, 64);
@@ -571,7 +578,9 @@ int study(const StudyArgs& a) {
   o.gather = intList(a.gather, "--gather", 1, 16);
   o.links = intList(a.links, "--links", 1, 256);
   o.bounces = intList(a.bounces, "--bounces", 1, 64);
-  o.base = {o.dirs[0], o.spp[0], o.shadows[0], o.voxels[0], o.gather[0], o.links[0], o.bounces[0]};
+  o.base = {o.methods[0], o.dirs[0],  o.spp[0],     o.shadows[0], o.voxels[0],
+            o.gather[0],  o.links[0], o.bounces[0], o.paths[0]};
+  if (o.paths.size() == 1 && o.methods.size() == 1) o.paths.clear();
   o.grid = a.grid;
   if (a.referenceSpp < 8 || a.referenceSpp > 4096)
     throw Error("invalid --reference-spp: samples per axis must be 8..4096");

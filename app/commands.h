@@ -19,7 +19,7 @@ struct SimulateArgs {
   std::string scene, output;
   EffectArgs effects;
   std::string dirs, texels, shadows, memoryBudget = "4G";
-  int spp = 0, threads = 0;
+  int spp = 0, threads = 0, chunkTexels = 0;
   long long seed = -1;
   double bias = 1.0;
   bool resume = false, json = false, quiet = false;
@@ -71,6 +71,7 @@ int plan(const PlanArgs& a);
 struct StudyArgs {
   std::string scene, output, texels = "32";
   // Comma-separated values per knob; the first value of each is the base configuration.
+  std::string methods = "network", paths = "1";
   std::string dirs = "bonn81,8x16,16x32", spp = "1,2", shadows = "map,rays", voxels = "0,16,64",
               gather = "4,1,8", links = "16,8,32", bounces = "3,1,2,4";
   bool grid = false;

@@ -329,7 +329,7 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
 
 void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
                             const std::vector<Material>& materials, const DirectionSet& dirs,
-                            const LightVisibility& visibility, int bounces, bool directional,
+                            const LightVisibility& visibility, int bounces, GlossyGather glossy,
                             ProgressReporter* progress, const CancelToken* cancel, int lightLimit) {
   const auto start = Clock::now();
   const auto& pts = net.points();
@@ -338,7 +338,12 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
   m_nL = dirs.size();
   m_E.assign(nP * size_t(m_nL) * 3, 0.0f);
   m_D.clear();
+  m_Lin.clear();
+  m_glossy = glossy;
+  const bool directional = glossy == GlossyGather::MeanDirection;
+  const bool perLink = glossy == GlossyGather::Links;
   if (directional) m_D.assign(nP * size_t(m_nL) * 3, 0.0f);
+  if (perLink) m_Lin.assign(nLk * size_t(m_nL) * 3, 0.0f);
   const int P = bounces;
 
   // Light-independent tables: per point its material, frame and gather weight α·π/N; per link
@@ -384,7 +389,7 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
       lightLimit > 0 ? std::min(lightLimit, m_nL) : m_nL, 1,
       [&](int64_t lb, int64_t le) {
         std::vector<float> ehit(nLk);
-        std::vector<Rgb> lin(nLk), linPrev(nLk), eOrder(nP), eTot(nP);
+        std::vector<Rgb> lin(nLk), linPrev(nLk), eOrder(nP), eTot(nP), linTot(perLink ? nLk : 0);
         std::vector<Vec3> dsum(directional ? nP : 0);
         for (int64_t l = lb; l < le; ++l) {
           const Vec3 w(dirs[int(l)].w);
@@ -397,6 +402,7 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
               ehit[e] = c * visibility(int(l), lk.hitP, lk.hitNg, lk.hitPrim);
           }
           std::fill(eTot.begin(), eTot.end(), Rgb(0));
+          std::fill(linTot.begin(), linTot.end(), Rgb(0));
           if (directional) std::fill(dsum.begin(), dsum.end(), Vec3(0));
           for (int order = 1; order < P; ++order) {
             // Radiance arriving along each link: what its target sends back toward the source.
@@ -424,6 +430,7 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
                 }
               }
               lin[e] = L;
+              if (perLink) linTot[e] += L;
             }
             for (size_t k = 0; k < nP; ++k) {
               Rgb sum(0);
@@ -436,6 +443,12 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
             }
             std::swap(lin, linPrev);
           }
+          if (perLink)
+            for (size_t e = 0; e < nLk; ++e) {
+              float* R = &m_Lin[(e * size_t(m_nL) + size_t(l)) * 3];
+              for (int c = 0; c < 3; ++c)
+                R[c] = std::isfinite(linTot[e][c]) ? linTot[e][c] * invCos : 0;
+            }
           for (size_t k = 0; k < nP; ++k) {
             float* E = &m_E[(k * size_t(m_nL) + size_t(l)) * 3];
             for (int c = 0; c < 3; ++c) E[c] = std::isfinite(eTot[k][c]) ? eTot[k][c] * invCos : 0;
@@ -473,9 +486,28 @@ void NetworkGather::add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t 
       out[3 * l + 2] += c * E[3 * l + 2];
     }
   }
-  if (!isGlossy(m) || !m_light.directional()) return;
+  if (!isGlossy(m)) return;
   const Frame fr = Frame::fromNormal(ns);
   const Vec3 woL = fr.toLocal(wo);
+  if (m_light.glossy() == GlossyGather::Links) {
+    // Exactly along the links of the nearest network point: f(ω_link, ωo) · α π / N · L_link.
+    const NetworkPoint& q = m_net.points()[idx[0]];
+    const uint32_t nLinks = q.linkEnd - q.linkBegin;
+    if (nLinks == 0) return;
+    const float g = q.alpha * kPiF / float(nLinks) * weight;
+    for (uint32_t e = q.linkBegin; e < q.linkEnd; ++e) {
+      const Rgb f = evalGlossy(m, fr.toLocal(m_net.links()[e].dir), woL) * g;
+      if (!(f.x > 0 || f.y > 0 || f.z > 0)) continue;
+      const float* R = m_light.linkRadiance(e);
+      for (int l = 0; l < nL; ++l) {
+        out[3 * l] += f.x * R[3 * l];
+        out[3 * l + 1] += f.y * R[3 * l + 1];
+        out[3 * l + 2] += f.z * R[3 * l + 2];
+      }
+    }
+    return;
+  }
+  if (!m_light.directional()) return;
   for (int l = 0; l < nL; ++l) {
     Vec3 d(0);
     Rgb E(0);
@@ -493,6 +525,10 @@ void NetworkGather::add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t 
     out[3 * l + 1] += f.y * E.y;
     out[3 * l + 2] += f.z * E.z;
   }
+}
+
+const char* glossyGatherName(GlossyGather g) {
+  return g == GlossyGather::None ? "none" : g == GlossyGather::Links ? "links" : "mean_direction";
 }
 
 }  // namespace btf

@@ -102,6 +102,12 @@ class PointNetwork {
 /// light) for light l of the set: the shadow-map test, shadow rays, or 1 without self-shadowing.
 using LightVisibility = std::function<float(int l, const Vec3& p, const Vec3& ng, uint32_t prim)>;
 
+/// How glossy receivers gather the indirect light: not at all (no glossy material), from the mean
+/// incident direction of each network point (cheap, for wide lobes), or exactly along the links
+/// of the nearest network point (per-link incoming radiance stored for every light).
+enum class GlossyGather { None, MeanDirection, Links };
+const char* glossyGatherName(GlossyGather g);
+
 class NetworkLighting {
  public:
   /// Solves every light of `dirs` on the network: per point and light, the indirect irradiance
@@ -110,7 +116,7 @@ class NetworkLighting {
   /// first lights (calibration of the estimate).
   void solve(const PointNetwork& net, const TileGeometry& geom,
              const std::vector<Material>& materials, const DirectionSet& dirs,
-             const LightVisibility& visibility, int bounces, bool directional,
+             const LightVisibility& visibility, int bounces, GlossyGather glossy,
              ProgressReporter* progress = nullptr, const CancelToken* cancel = nullptr,
              int lightLimit = -1);
   int lights() const { return m_nL; }
@@ -119,14 +125,20 @@ class NetworkLighting {
   /// nL × 3 floats of point k: unit mean incident direction per light (world).
   const float* direction(uint32_t k) const { return &m_D[size_t(k) * size_t(m_nL) * 3]; }
   bool directional() const { return !m_D.empty(); }
+  /// nL × 3 floats of link e: radiance arriving along it, every order, per light.
+  const float* linkRadiance(uint32_t e) const { return &m_Lin[size_t(e) * size_t(m_nL) * 3]; }
+  GlossyGather glossy() const { return m_glossy; }
   double solveSeconds() const { return m_seconds; }
-  static uint64_t memoryBytes(size_t points, int lights, bool directional) {
-    return uint64_t(points) * uint64_t(lights) * 12 * (directional ? 2 : 1);
+  static uint64_t memoryBytes(size_t points, size_t links, int lights, GlossyGather g) {
+    const uint64_t row = uint64_t(lights) * 12;
+    return uint64_t(points) * row * (g == GlossyGather::MeanDirection ? 2 : 1) +
+           (g == GlossyGather::Links ? uint64_t(links) * row : 0);
   }
 
  private:
   int m_nL = 0;
-  std::vector<float> m_E, m_D;
+  std::vector<float> m_E, m_D, m_Lin;
+  GlossyGather m_glossy = GlossyGather::None;
   double m_seconds = 0;
 };
 

@@ -101,6 +101,16 @@ bool anyGlossy(const std::vector<Material>& mats) {
 }
 }  // namespace
 
+GlossyGather SimulationJob::glossyGather() const {
+  if (!anyGlossy(m_materials) || !m_network) return GlossyGather::None;
+  // Exact per-link gathering when its table (links × lights × RGB) fits in an eighth of the
+  // memory budget and 512 MiB; the mean incident direction otherwise.
+  const uint64_t bytes = uint64_t(m_network->links().size()) * uint64_t(m_dirs.size()) * 12;
+  return bytes <= std::min<uint64_t>(m_opt.memoryBudget / 8, uint64_t(512) << 20)
+             ? GlossyGather::Links
+             : GlossyGather::MeanDirection;
+}
+
 BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
   BtfInfo i;
   i.nu = m_opt.nu;
@@ -131,6 +141,7 @@ BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
     plan["network"]["alpha_directions"] = n.alphaDirections;
     plan["network"]["links"] = n.links;
     plan["network"]["gather"] = n.gather;
+    plan["network"]["glossy_gather"] = glossyGatherName(glossyGather());
     plan["network"]["points"] = m_network->points().size();
     plan["network"]["link_count"] = m_network->links().size();
   }
@@ -211,9 +222,9 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   e.hitMapBytes = uint64_t(nD) * samples * HitMaps::kBytesPerSample;
   const uint64_t vmfBytes = pl.vmf ? uint64_t(nD) * uint64_t(texels) * 8 : 0;
   if (gi)
-    e.networkBytes =
-        m_network->memoryBytes() +
-        NetworkLighting::memoryBytes(m_network->points().size(), nD, anyGlossy(m_materials));
+    e.networkBytes = m_network->memoryBytes() +
+                     NetworkLighting::memoryBytes(m_network->points().size(),
+                                                  m_network->links().size(), nD, glossyGather());
   const uint64_t fixed =
       (64ull << 20) + e.hitMapBytes + vmfBytes + e.networkBytes + m_tracer->embreeTriangles() * 160;
   if (fixed + texelBytes > m_opt.memoryBudget) {
@@ -228,6 +239,8 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   uint64_t perChunk = std::max<uint64_t>(
       1, (m_opt.memoryBudget > fixed ? m_opt.memoryBudget - fixed : 0) / texelBytes);
   perChunk = std::min<uint64_t>(perChunk, std::max<uint64_t>(1, m_opt.maxChunkBytes / texelBytes));
+  if (m_opt.maxChunkTexels > 0)
+    perChunk = std::min<uint64_t>(perChunk, uint64_t(m_opt.maxChunkTexels));
   perChunk = std::min<uint64_t>(perChunk, uint64_t(texels));
   e.chunkTexels = int(perChunk);
   e.chunkBytes = perChunk * texelBytes;
@@ -290,7 +303,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
           [&](int l, const Vec3& p, const Vec3& ng, uint32_t prim) {
             return direct.lightVisibility(l, p, ng, prim);
           },
-          P, anyGlossy(m_materials), nullptr, nullptr, nCal);
+          P, glossyGather(), nullptr, nullptr, nCal);
     }
     const double perLight = light.solveSeconds() / nCal;
     NetworkGather gather(*m_network, light, m_geom, m_materials);
@@ -374,7 +387,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
         [&](int l, const Vec3& p, const Vec3& ng, uint32_t prim) {
           return direct.lightVisibility(l, p, ng, prim);
         },
-        pl.bounces, anyGlossy(m_materials), &pr, cancel);
+        pl.bounces, glossyGather(), &pr, cancel);
     pr.finish();
     r.lightSeconds = lighting.solveSeconds();
     gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);

@@ -33,6 +33,7 @@ struct SimOptions {
   uint64_t seed = 1;
   uint64_t memoryBudget = uint64_t(4) << 30;
   uint64_t maxChunkBytes = uint64_t(256) << 20;  // resume granularity
+  int maxChunkTexels = 0;                        // > 0: at most this many texels per chunk
   bool resume = false;
   bool progress = true;
   /// "network": direct light plus the point network's inter-reflection where the plan calls for
@@ -88,6 +89,8 @@ class SimulationJob {
   const EffectPlan& plan() const;
   /// The point network (null when none was built).
   const PointNetwork* network() const;
+  /// How glossy receivers gather indirect light (from the materials and the memory budget).
+  GlossyGather glossyGather() const;
   /// Network settings after resolving the automatic density.
   NetworkSettings networkSettings() const;
   /// Chunk consumer: receives every finished chunk (texels [t0, t1), texel-major values).

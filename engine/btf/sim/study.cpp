@@ -36,6 +36,10 @@ void writeAtomic(const std::string& path, const std::string& text) {
 
 std::string StudyConfig::label() const {
   std::ostringstream s;
+  if (method == "pt") {
+    s << "pt " << dirs << " spp" << spp << " paths" << paths << " P" << bounces;
+    return s.str();
+  }
   s << dirs << " spp" << spp << " " << shadowModeName(shadows) << " P" << bounces;
   if (bounces > 1)
     s << " vox" << (voxels ? std::to_string(voxels) : "auto") << " N1=" << gather << " links"
@@ -62,6 +66,17 @@ std::vector<StudyConfig> studyConfigs(const StudyOptions& o) {
     out.push_back(c);
   };
   if (!o.grid) {
+    for (const auto& v : o.methods) {
+      StudyConfig c = o.base;
+      c.method = v;
+      add(c);
+    }
+    for (int v : o.paths) {
+      StudyConfig c = o.base;
+      c.method = "pt";
+      c.paths = v;
+      add(c);
+    }
     for (const auto& v : o.dirs) {
       StudyConfig c = o.base;
       c.dirs = v;
@@ -103,13 +118,16 @@ std::vector<StudyConfig> studyConfigs(const StudyOptions& o) {
     if (list.empty()) list.push_back(base);
     return list;
   };
-  for (const auto& d : orBase(o.dirs, o.base.dirs))
-    for (int s : orBase(o.spp, o.base.spp))
-      for (ShadowMode m : orBase(o.shadows, o.base.shadows))
-        for (int v : orBase(o.voxels, o.base.voxels))
-          for (int g : orBase(o.gather, o.base.gather))
-            for (int l : orBase(o.links, o.base.links))
-              for (int b : orBase(o.bounces, o.base.bounces)) add({d, s, m, v, g, l, b});
+  for (const auto& me : orBase(o.methods, o.base.method))
+    for (const auto& d : orBase(o.dirs, o.base.dirs))
+      for (int s : orBase(o.spp, o.base.spp))
+        for (ShadowMode m : orBase(o.shadows, o.base.shadows))
+          for (int v : orBase(o.voxels, o.base.voxels))
+            for (int g : orBase(o.gather, o.base.gather))
+              for (int l : orBase(o.links, o.base.links))
+                for (int b : orBase(o.bounces, o.base.bounces))
+                  for (int q : orBase(o.paths, o.base.paths))
+                    add({me, d, s, m, v, g, l, b, me == "pt" ? q : 1});
   return out;
 }
 
@@ -164,6 +182,8 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
   ProgressReporter pr("study", int64_t(configs.size()), o.progress);
   for (const StudyConfig& c : configs) {
     SimOptions so = base;
+    so.method = c.method;
+    so.ptPaths = c.paths;
     so.directions = c.dirs;
     so.spp = c.spp;
     so.shadows = c.shadows;

@@ -14,6 +14,7 @@
 namespace btf {
 
 struct StudyConfig {
+  std::string method = "network";  // network | pt (path traced BTF, `paths` per sample)
   std::string dirs = "bonn81";
   int spp = 1;
   ShadowMode shadows = ShadowMode::Map;
@@ -21,6 +22,7 @@ struct StudyConfig {
   int gather = 4;
   int links = 16;
   int bounces = 3;  // P; 1 = direct only
+  int paths = 1;    // pt only
   std::string label() const;
 };
 
@@ -43,8 +45,8 @@ struct StudyOptions {
   int nu = 32, nv = 32;
   StudyConfig base;
   // Values swept for each knob (empty = only the base value).
-  std::vector<std::string> dirs;
-  std::vector<int> spp, voxels, gather, links, bounces;
+  std::vector<std::string> methods, dirs;
+  std::vector<int> spp, voxels, gather, links, bounces, paths;
   std::vector<ShadowMode> shadows;
   bool grid = false;           // false: one knob at a time around the base; true: the full product
   int referenceSamples = 256;  // per axis, per probe pair (n² paths)

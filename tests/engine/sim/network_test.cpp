@@ -130,7 +130,7 @@ TEST(Network, ZeroAlbedoGivesExactlyZeroIndirect) {
   NetworkLighting L;
   L.solve(
       *job->network(), job->geometry(), job->materials(), job->directions(),
-      [](int, const Vec3&, const Vec3&, uint32_t) { return 1.0f; }, 4, false);
+      [](int, const Vec3&, const Vec3&, uint32_t) { return 1.0f; }, 4, GlossyGather::None);
   size_t nonzero = 0;
   for (uint32_t k = 0; k < job->network()->points().size(); ++k)
     for (int c = 0; c < job->directions().size() * 3; ++c) nonzero += L.irradiance(k)[c] != 0;
@@ -224,7 +224,8 @@ TEST(Network, HardCasesStayFinite) {
     NetworkLighting L;
     L.solve(
         *job->network(), job->geometry(), job->materials(), g,
-        [](int, const Vec3&, const Vec3&, uint32_t) { return 1.0f; }, P, true);
+        [](int, const Vec3&, const Vec3&, uint32_t) { return 1.0f; }, P,
+        GlossyGather::MeanDirection);
     for (uint32_t k = 0; k < job->network()->points().size(); ++k)
       for (int c = 0; c < g.size() * 3; ++c) {
         ASSERT_TRUE(std::isfinite(L.irradiance(k)[c]));

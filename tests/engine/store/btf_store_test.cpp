@@ -151,7 +151,7 @@ TEST(BtfStore, UnfinishedWriteLeavesNoFinalFile) {
 TEST(BtfStore, KilledSimulationResumesToTheSameBytes) {
   const auto dir = test::tempDir("store_resume");
   const std::string scene = test::sourceDir() + "/resources/scenes/brick.json";
-  const std::string common = " --texels 8 --dirs bonn81 --spp 2 --memory-budget 68M -q";
+  const std::string common = " --texels 8 --dirs bonn81 --spp 2 --chunk-texels 8 -q";
   std::string out;
   ASSERT_EQ(
       test::runBtfsim("simulate " + scene + " -o " + (dir / "full.btf").string() + common, &out), 0)
