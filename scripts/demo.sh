@@ -1,12 +1,16 @@
 #!/usr/bin/env bash
-# `make demo`: simulate the default scene (resources/scenes/brick.json) into out/, print the
-# summary, write slice images and the averaged BRDF, and say where everything is.
+# `make demo`: simulate the default scene (resources/scenes/brick.json) into out/ with the effects
+# its plan calls for (direct light, self-shadowing, inter-reflection by the point network), print
+# the plan and the summary, write slice images and the averaged BRDF, run a small accuracy-vs-time
+# study against the path tracer, and say where everything is.
 set -euo pipefail
 BUILD=${1:-build}
 SIM="$BUILD/app/btfsim"
 SCENE=resources/scenes/brick.json
 mkdir -p out
-echo "== simulate $SCENE (32x32 texels, bonn81 directions: 81 x 81 pairs)"
+echo "== effect plan of $SCENE"
+"$SIM" plan "$SCENE"
+echo "== simulate $SCENE (32x32 texels, bonn81 directions: 81 x 81 pairs, GI by the point network)"
 "$SIM" simulate "$SCENE" -o out/brick.btf --json > out/brick.summary.json
 cat out/brick.summary.json
 echo "== info"
@@ -18,11 +22,14 @@ echo "== slices"
 "$SIM" slice out/brick.btf --view 30,0 --light 45,0 -o out/brick_v30_l45.exr
 "$SIM" slice out/brick.btf --texel avg --light 45,0 -o out/brick_brdf_l45.png
 "$SIM" slice out/brick.btf --texel 8,8 --light 45,0 -o out/brick_texel8_8_l45.png
-echo "== averaged BRDF (texel average, 128x128 rays per pair, exact shadow rays)"
+echo "== averaged BRDF (texel average, 128x128 path-traced positions per pair, every effect)"
 "$SIM" brdf "$SCENE" --spp 128 \
   --pair 0,0,0,0 --pair 30,0,30,180 --pair 45,0,45,180 --pair 60,0,60,180 --pair 75,0,75,180 \
   --pair 45,0,45,0 --pair 45,90,45,270 --pair 80,0,10,0 > out/brick_brdf.csv
 cat out/brick_brdf.csv
+echo "== accuracy vs time (small study: 16x16 texels, against the path tracer)"
+"$SIM" study "$SCENE" -o out/study --texels 16 --method network,pt --dirs bonn81,8x16 --spp 1,2 \
+  --shadows map --network-voxels 0 --gather 4 --links 16 --bounces 3,1,2 --reference-spp 128 -q
 echo
 echo "Outputs are in $(pwd)/out:"
 ls -1 out | sed 's/^/  out\//'

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <future>
 #include <nlohmann/json.hpp>
 
 namespace btf {
@@ -227,7 +228,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
                                                   m_network->links().size(), nD, glossyGather());
   const uint64_t fixed =
       (64ull << 20) + e.hitMapBytes + vmfBytes + e.networkBytes + m_tracer->embreeTriangles() * 160;
-  if (fixed + texelBytes > m_opt.memoryBudget) {
+  if (fixed + texelBytes * (outPath.empty() ? 1 : 2) > m_opt.memoryBudget) {
     e.refusal = "memory budget " + formatBytes(double(m_opt.memoryBudget)) +
                 " is too small: hit maps need " + formatBytes(double(e.hitMapBytes)) +
                 ", visibility map " + formatBytes(double(vmfBytes)) + ", point network " +
@@ -236,15 +237,17 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
                 " (lower --texels, --spp, the direction count or --network-voxels, or raise "
                 "--memory-budget)";
   }
+  const uint64_t buffers = outPath.empty() ? 1 : 2;
   uint64_t perChunk = std::max<uint64_t>(
-      1, (m_opt.memoryBudget > fixed ? m_opt.memoryBudget - fixed : 0) / texelBytes);
+      1, (m_opt.memoryBudget > fixed ? m_opt.memoryBudget - fixed : 0) / (texelBytes * buffers));
   perChunk = std::min<uint64_t>(perChunk, std::max<uint64_t>(1, m_opt.maxChunkBytes / texelBytes));
   if (m_opt.maxChunkTexels > 0)
     perChunk = std::min<uint64_t>(perChunk, uint64_t(m_opt.maxChunkTexels));
   perChunk = std::min<uint64_t>(perChunk, uint64_t(texels));
   e.chunkTexels = int(perChunk);
   e.chunkBytes = perChunk * texelBytes;
-  e.memoryBytes = fixed + e.chunkBytes;
+  // Writing keeps two chunk buffers (one computed while the other is written).
+  e.memoryBytes = fixed + e.chunkBytes * (outPath.empty() ? 1 : 2);
   BtfInfo info = storeInfo(e.chunkTexels);
   e.chunks = info.chunks();
   e.diskBytes = outPath.empty() ? 0 : btfFileBytes(info);
@@ -405,7 +408,19 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   const char* abortEnv = std::getenv("BTF_TEST_ABORT_AFTER_CHUNKS");  // test hook: simulates a kill
   const int abortAfter = abortEnv ? std::atoi(abortEnv) : -1;
   int written = 0;
-  std::vector<float> chunk;
+  // Two buffers: chunk c is written by a background task while chunk c + 1 is computed.
+  std::vector<float> buffers[2];
+  int cur = 0;
+  std::future<double> pending;  // the background write; returns its duration
+  auto waitWrite = [&] {
+    if (!pending.valid()) return;
+    r.writeSeconds += pending.get();
+    if (++written == abortAfter) {
+      std::fprintf(stderr, "\nBTF_TEST_ABORT_AFTER_CHUNKS: exiting abruptly after %d chunk(s)\n",
+                   written);
+      std::_Exit(75);
+    }
+  };
   std::atomic<uint64_t> evals{0};
   ProgressReporter pr("aBRDF", info.texels(), m_opt.progress);
   const auto evalStart = Clock::now();
@@ -416,6 +431,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
       continue;
     }
     const size_t stride = size_t(nD) * size_t(nD) * 3;
+    std::vector<float>& chunk = buffers[cur];
     chunk.assign(size_t(t1 - t0) * stride, 0.f);
     parallelForChunks(
         (t1 - t0) * nD, pt ? 1 : 8,
@@ -438,19 +454,20 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     r.abrdfValues += uint64_t(t1 - t0) * uint64_t(nD) * uint64_t(nD);
     if (m_sink) m_sink(c, t0, t1, chunk.data());
     if (writer) {
-      const auto w0 = Clock::now();
-      writer->writeChunk(c, chunk.data());
-      r.writeSeconds += since(w0);
-      if (++written == abortAfter) {
-        std::fprintf(stderr, "\nBTF_TEST_ABORT_AFTER_CHUNKS: exiting abruptly after %d chunk(s)\n",
-                     written);
-        std::_Exit(75);
-      }
+      waitWrite();  // at most one write in flight: the other buffer is free again
+      pending = std::async(std::launch::async, [&writer, c, data = chunk.data()] {
+        const auto w0 = Clock::now();
+        writer->writeChunk(c, data);
+        return since(w0);
+      });
+      cur ^= 1;
     }
   }
+  waitWrite();
   if (!r.cancelled) pr.finish();
-  r.evalSeconds = since(evalStart) - r.writeSeconds;
-  r.renderSeconds = since(renderStart) - r.writeSeconds;
+  // Writes overlap the compute: the time spent waiting for the last one is not compute.
+  r.evalSeconds = since(evalStart);
+  r.renderSeconds = since(renderStart);
   r.brdfEvaluations = evals.load();
   if (writer && !r.cancelled) {
     writer->finish();

@@ -142,7 +142,7 @@ BtfWriter::BtfWriter(const std::string& path, const BtfInfo& info, bool resume)
       if (::pread(m_fd, buf.data(), bytes, off_t(m_layout.chunkOffset(info, c))) ==
               ssize_t(bytes) &&
           checksum64(buf.data(), bytes) == table[size_t(c)].checksum)
-        m_done[size_t(c)] = true;  // verified: keep it
+        m_done[size_t(c)] = 1;  // verified: keep it
     }
     m_resumed = true;
     return;
@@ -204,7 +204,7 @@ void BtfWriter::writeChunk(int c, const float* data) {
   if (::fdatasync(m_fd) != 0) throw Error(sysError(m_partial, "fdatasync failed"));
   const TableEntry e{checksum64(data, bytes), kDone};
   pwriteAll(&e, sizeof e, m_layout.tableOffset + sizeof(TableEntry) * uint64_t(c));
-  m_done[size_t(c)] = true;
+  m_done[size_t(c)] = 1;
 }
 
 void BtfWriter::finish() {

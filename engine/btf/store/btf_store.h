@@ -62,7 +62,7 @@ class BtfWriter {
   BtfWriter(const BtfWriter&) = delete;
   BtfWriter& operator=(const BtfWriter&) = delete;
 
-  bool chunkDone(int c) const { return m_done[size_t(c)]; }
+  bool chunkDone(int c) const { return m_done[size_t(c)] != 0; }
   int chunksDone() const;
   bool resumed() const { return m_resumed; }
   /// VMF of all directions: nDirs × nu × nv × 2 floats (coverage, mean depth).
@@ -79,7 +79,7 @@ class BtfWriter {
   BtfInfo m_info;
   BtfLayout m_layout;
   int m_fd = -1;
-  std::vector<bool> m_done;
+  std::vector<uint8_t> m_done;  // bytes, not bits: a background writer marks chunks done
   bool m_resumed = false;
   bool m_finished = false;
 };
