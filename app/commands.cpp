@@ -494,6 +494,7 @@ int plan(const PlanArgs& a) {
     j["method"] = o.method;
     j["texels"] = {o.nu, o.nv};
     j["directions"] = job.directions().name();
+    j["triangles"] = job.geometry().triangleCount();
     j["estimate"]["seconds"] = est.seconds;
     j["estimate"]["hit_map_seconds"] = est.hitMapSeconds;
     j["estimate"]["abrdf_seconds"] = est.evalSeconds;
@@ -514,6 +515,8 @@ int plan(const PlanArgs& a) {
               scene.name.c_str(), o.nu, o.nv, job.directions().name().c_str(),
               job.directions().size(), o.method.c_str());
   printPlan(p, stdout);
+  std::printf("geometry: %zu triangles (%zu in the tracer with the periodic copies)\n",
+              job.geometry().triangleCount(), job.tracer().embreeTriangles());
   std::printf(
       "analysis: %s; ρ_max %.3g; α max %.3g, mean %.3g; %lld of %lld occlusion probes "
       "occluded\n",

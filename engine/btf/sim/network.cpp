@@ -385,6 +385,7 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
     }
   });
 
+  m_setupSeconds = since(start);
   parallelForChunks(
       lightLimit > 0 ? std::min(lightLimit, m_nL) : m_nL, 1,
       [&](int64_t lb, int64_t le) {

@@ -129,6 +129,8 @@ class NetworkLighting {
   const float* linkRadiance(uint32_t e) const { return &m_Lin[size_t(e) * size_t(m_nL) * 3]; }
   GlossyGather glossy() const { return m_glossy; }
   double solveSeconds() const { return m_seconds; }
+  /// The light-independent part of solveSeconds (frames, glossy transfer tables).
+  double setupSeconds() const { return m_setupSeconds; }
   static uint64_t memoryBytes(size_t points, size_t links, int lights, GlossyGather g) {
     const uint64_t row = uint64_t(lights) * 12;
     return uint64_t(points) * row * (g == GlossyGather::MeanDirection ? 2 : 1) +
@@ -139,7 +141,7 @@ class NetworkLighting {
   int m_nL = 0;
   std::vector<float> m_E, m_D, m_Lin;
   GlossyGather m_glossy = GlossyGather::None;
-  double m_seconds = 0;
+  double m_seconds = 0, m_setupSeconds = 0;
 };
 
 /// The final gather of the indirect term for the direct hits of a view.

@@ -308,10 +308,10 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
           },
           P, glossyGather(), nullptr, nullptr, nCal);
     }
-    const double perLight = light.solveSeconds() / nCal;
+    const double perLight = (light.solveSeconds() - light.setupSeconds()) / nCal;
     NetworkGather gather(*m_network, light, m_geom, m_materials);
     const double withGather = timeKernel(mode, &gather, false);
-    const double lightSeconds = perLight * nD / threads;
+    const double lightSeconds = light.setupSeconds() + perLight * nD / threads;
     const double gatherSeconds =
         double(samples) * double(nD) * std::max(0.0, withGather - perSampleView) / threads;
     if (gi) {

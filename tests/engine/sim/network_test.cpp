@@ -369,9 +369,8 @@ TEST(Planner, FlatTileTurnsShadowsGIAndVmfOffWithoutChangingTheResult) {
 }
 
 TEST(Planner, ConvexSceneTurnsGIOffAndTheBtfEqualsTheGIOnBtf) {
-  // A gentle sine seen from a coarse set: bumps are convex where they face up, but the troughs
-  // see the crests, so the test uses a flat-topped convex case — a single plane, tilted by a
-  // mesh-free part: boxes too thin to see each other.
+  // A periodic height field that is convex everywhere is a plane (any bump has a trough that sees
+  // it), so the convex case is the raised flat tile: no two points see each other, α = 0.
   const Scene s = test::sceneFromJson(scene(lambert(0.9), kFlat));
   SimOptions o = opts(8, "bonn81", 1, 1);
   o.plan.interreflection = Toggle::Auto;
