@@ -117,6 +117,10 @@ TEST(Network, EnergyMonotoneInPathLengthBoundedAndConvergesToPathTracer) {
                   a[2], a[3], aRef);
       EXPECT_NEAR(a[3], aRef, 0.025 * aRef);
       EXPECT_LT(std::abs(a[3] - aRef), std::abs(a[1] - aRef));
+      // Density: a coarse network (6 voxels per side) is further from the reference.
+      const double coarse = albedo(simulate(s, opts(16, "8x16", 2, 6, 6)), d, light);
+      std::printf("  P = 6 with 6 voxels per side: %.4f\n", coarse);
+      EXPECT_LE(std::abs(a[3] - aRef), std::abs(coarse - aRef) + 0.002);
     }
 }
 
