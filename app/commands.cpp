@@ -48,21 +48,25 @@ void parseAnglePair(const std::string& s, const std::string& what, double* theta
 }
 
 void applyEffects(const EffectArgs& e, SimOptions* o) {
-  o->method = e.method;
+  // The scene's simulation block gave the defaults; options given here override them.
+  if (!e.method.empty()) o->method = e.method;
   o->plan.selfShadowing = parseToggle(e.selfShadowing, "--self-shadowing");
-  o->plan.interreflection = parseToggle(e.interreflection, "--interreflection");
+  if (!e.interreflection.empty())
+    o->plan.interreflection = parseToggle(e.interreflection, "--interreflection");
   o->plan.colour = parseToggle(e.colour, "--colour");
   o->plan.vmf = parseToggle(e.vmf, "--vmf");
   if (e.bounces < 0 || e.bounces > 64) throw Error("invalid --bounces: must be 1..64 (0 = plan)");
-  o->plan.bounces = e.bounces;
-  if (e.bounces > 1 && o->plan.interreflection == Toggle::Auto)
-    o->plan.interreflection = Toggle::On;
-  if (e.bounces == 1) o->plan.interreflection = Toggle::Off;
+  if (e.bounces > 0) {
+    o->plan.bounces = e.bounces;
+    if (e.bounces > 1 && o->plan.interreflection == Toggle::Auto)
+      o->plan.interreflection = Toggle::On;
+    if (e.bounces == 1) o->plan.interreflection = Toggle::Off;
+  }
   if (!(e.epsilon > 0 && e.epsilon < 1)) throw Error("invalid --epsilon: must be in (0, 1)");
   o->plan.epsilon = e.epsilon;
   if (e.networkVoxels != 0 && (e.networkVoxels < 2 || e.networkVoxels > 1024))
     throw Error("invalid --network-voxels: must be 2..1024 (0 = one per texel)");
-  o->network.voxels = e.networkVoxels;
+  if (e.networkVoxels != 0) o->network.voxels = e.networkVoxels;
   o->network.links = e.links;
   o->network.gather = e.gather;
   o->ptPaths = e.paths;

@@ -8,8 +8,8 @@ namespace btf::cli {
 
 /// Effect plan, method and point-network options shared by simulate, plan, bench and study.
 struct EffectArgs {
-  std::string method = "network";  // network | pt
-  std::string selfShadowing = "auto", interreflection = "auto", colour = "auto", vmf = "auto";
+  std::string method;  // network | pt; empty = the scene's simulation.method
+  std::string selfShadowing = "auto", interreflection, colour = "auto", vmf = "auto";  // "" = scene
   int bounces = 0;  // 0 = from the plan
   double epsilon = 0.01;
   int networkVoxels = 0, links = 16, gather = 4, paths = 16;

@@ -314,7 +314,15 @@ const TypeDecl& simulationDecl() {
        in("spp", 1, 1, 64, "supersampling: K×K jittered rays per texel (1 = texel centre)"),
        en("shadows", "map", {"map", "rays"},
           "self-shadowing: shadow-map test or exact shadow rays"),
-       in("seed", 1, 0, 1 << 30, "seed of the jitter")}};
+       in("seed", 1, 0, 1 << 30, "seed of the jitter"),
+       en("method", "network", {"network", "pt"},
+          "network: direct light + point-network inter-reflection where the plan calls for it; "
+          "pt: every value path traced (docs/gi.md)"),
+       en("interreflection", "auto", {"auto", "on", "off"},
+          "inter-reflection: decided by the effect planner, or forced"),
+       in("bounces", 0, 0, 64, "P, reflections per path (1 = direct only); 0 = from the plan"),
+       in("network_voxels", 0, 0, 1024,
+          "point-network density, voxels along the longer tile side; 0 = one per texel")}};
   return d;
 }
 

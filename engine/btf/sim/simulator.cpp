@@ -38,6 +38,15 @@ SimOptions optionsFromScene(const Scene& scene) {
   o.spp = s.i("spp");
   o.shadows = parseShadowMode(s.s("shadows"));
   o.seed = uint64_t(s.i("seed"));
+  o.method = s.s("method");
+  o.plan.interreflection = parseToggle(s.s("interreflection"), "simulation.interreflection");
+  o.plan.bounces = s.i("bounces");
+  if (o.plan.bounces == 1) o.plan.interreflection = Toggle::Off;
+  if (o.plan.bounces > 1 && o.plan.interreflection == Toggle::Auto)
+    o.plan.interreflection = Toggle::On;
+  if (s.i("network_voxels") == 1)
+    throw Error("simulation.network_voxels: must be 0 (auto) or at least 2");
+  o.network.voxels = s.i("network_voxels");
   return o;
 }
 

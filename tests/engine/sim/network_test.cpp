@@ -447,6 +447,26 @@ TEST(Planner, GreySceneNeedsOneChannel) {
   EXPECT_EQ(simulate(brick(), opts(4, "bonn81", 1, 1)).plan.channels, 3);
 }
 
+TEST(Planner, SceneSimulationBlockSetsTheDefaults) {
+  const std::string base = R"({"btfscene": 1, "materials": {"m": {"type": "lambert"}},
+      "parts": [{"type": "vgrooves", "material": "m"}], "simulation": )";
+  SimOptions o = optionsFromScene(test::sceneFromJson(base + R"({"interreflection": "off"}})"));
+  EXPECT_EQ(o.plan.interreflection, Toggle::Off);
+  o = optionsFromScene(
+      test::sceneFromJson(base + R"({"bounces": 2, "method": "pt", "network_voxels": 24}})"));
+  EXPECT_EQ(o.plan.interreflection, Toggle::On);
+  EXPECT_EQ(o.plan.bounces, 2);
+  EXPECT_EQ(o.method, "pt");
+  EXPECT_EQ(o.network.voxels, 24);
+  try {
+    test::sceneFromJson(base + R"({"interreflection": "maybe"}})");
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("simulation.interreflection"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Planner, ForcedFlagsAndBadValuesAreClearErrors) {
   std::string out;
   const std::string sc = test::sourceDir() + "/resources/scenes/brick.json";
