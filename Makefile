@@ -25,7 +25,8 @@ test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
 
 bench: build
-	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json
+	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json --bounces 1
+	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json --spp 2 --bounces 3 --shadows map --repeat 1
 
 clean:
 	rm -rf $(BUILD_DIR) out

@@ -85,6 +85,7 @@ int main(int argc, char** argv) {
   bn->add_option("--shadows", be.shadows, "comma-separated modes to measure");
   bn->add_option("--threads", be.threads, "worker threads");
   bn->add_option("--repeat", be.repeat, "runs per mode (the median is reported)");
+  addEffectOptions(bn, be.effects);
   bn->add_flag("--json", be.json, "JSON output");
 
   PlanArgs pa;

@@ -408,6 +408,7 @@ int bench(const BenchArgs& a) {
     o.directions = a.dirs;
     o.spp = a.spp;
     o.shadows = parseShadowMode(mode);
+    applyEffects(a.effects, &o);
     o.progress = false;
     o.memoryBudget = uint64_t(2) << 30;
     SimulationJob job(scene, o);
@@ -422,9 +423,10 @@ int bench(const BenchArgs& a) {
       rates.push_back(double(r.abrdfValues) / r.evalSeconds);
       rss.push_back(double(r.peakRssBytes));
       std::fprintf(stderr,
-                   "bench %s run %d/%d: %.2f s (hit maps %.2f s, aBRDF %.2f s, %.1f M values/s)\n",
+                   "bench %s run %d/%d: %.2f s (hit maps %.2f s, aBRDF %.2f s, %.1f M values/s; "
+                   "P = %d)\n",
                    mode.c_str(), k + 1, a.repeat, r.wallSeconds, r.hitMapSeconds, r.evalSeconds,
-                   rates.back() / 1e6);
+                   rates.back() / 1e6, job.plan().bounces);
     }
     auto median = [](std::vector<double> v) {
       std::sort(v.begin(), v.end());
@@ -432,6 +434,9 @@ int bench(const BenchArgs& a) {
     };
     json j;
     j["shadows"] = mode;
+    j["method"] = o.method;
+    j["interreflection"] = job.plan().interreflection;
+    j["bounces"] = job.plan().bounces;
     j["texels"] = {o.nu, o.nv};
     j["directions"] = job.directions().name();
     j["pairs"] = int64_t(job.directions().size()) * job.directions().size();

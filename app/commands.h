@@ -54,6 +54,7 @@ int info(const InfoArgs& a);
 
 struct BenchArgs {
   std::string scene;
+  EffectArgs effects;
   std::string texels = "64", dirs = "16x32", shadows = "map,rays";
   int spp = 1, threads = 0, repeat = 3;
   bool json = false;
