@@ -160,7 +160,7 @@ int simulate(const SimulateArgs& a) {
     std::printf("wrote %s (%s)\n", r.output.c_str(), formatBytes(double(r.outputBytes)).c_str());
     std::printf("  %d x %d texels, %d directions (%s), spp %d, shadows %s, %d thread(s)\n", o.nu,
                 o.nv, job.directions().size(), job.directions().name().c_str(), o.spp,
-                shadowModeName(o.shadows), est.threads);
+                o.method == "pt" ? "exact (path traced)" : shadowModeName(o.shadows), est.threads);
     std::printf("  wall %s: hit maps %s (%.2f M rays/s), aBRDF %s (%.2f M values/s), write %s\n",
                 formatSeconds(r.wallSeconds).c_str(), formatSeconds(r.hitMapSeconds).c_str(),
                 rayRate / 1e6, formatSeconds(r.evalSeconds).c_str(), evalRate / 1e6,

@@ -354,7 +354,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   if (!outPath.empty()) writer = std::make_unique<BtfWriter>(outPath, info, m_opt.resume);
   r.chunks = info.chunks();
   r.chunksResumed = writer ? writer->chunksDone() : 0;
-  if (m_network) {
+  if (m_network && gi) {
     r.networkSeconds = m_network->buildSeconds();
     r.networkPoints = m_network->points().size();
     r.networkLinks = m_network->links().size();
