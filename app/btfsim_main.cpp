@@ -14,6 +14,8 @@ void addEffectOptions(CLI::App* c, btf::cli::EffectArgs& e) {
   c->add_option("--interreflection", e.interreflection, "auto, on or off");
   c->add_option("--bounces", e.bounces, "P: reflections per path (1 = direct only; 0 = plan)");
   c->add_option("--epsilon", e.epsilon, "planner: energy fraction below which an order is dropped");
+  c->add_option("--glossy-indirect", e.glossyIndirect,
+                "auto, on or off: glossy lobes reflect the indirect light at the texels");
   c->add_option("--colour", e.colour, "auto, on (RGB) or off (one channel, grey scenes)");
   c->add_option("--vmf", e.vmf, "auto, on or off: store the visibility map");
   c->add_option("--network-voxels", e.networkVoxels, "network density (0 = one per texel)");

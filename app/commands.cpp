@@ -54,6 +54,7 @@ void applyEffects(const EffectArgs& e, SimOptions* o) {
   if (!e.interreflection.empty())
     o->plan.interreflection = parseToggle(e.interreflection, "--interreflection");
   o->plan.colour = parseToggle(e.colour, "--colour");
+  o->plan.glossyIndirect = parseToggle(e.glossyIndirect, "--glossy-indirect");
   o->plan.vmf = parseToggle(e.vmf, "--vmf");
   if (e.bounces < 0 || e.bounces > 64) throw Error("invalid --bounces: must be 1..64 (0 = plan)");
   if (e.bounces > 0) {

@@ -10,6 +10,7 @@ namespace btf::cli {
 struct EffectArgs {
   std::string method;  // network | pt; empty = the scene's simulation.method
   std::string selfShadowing = "auto", interreflection, colour = "auto", vmf = "auto";  // "" = scene
+  std::string glossyIndirect = "auto";
   int bounces = 0;  // 0 = from the plan
   double epsilon = 0.01;
   int networkVoxels = 0, links = 16, gather = 4, paths = 16;

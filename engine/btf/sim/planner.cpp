@@ -31,12 +31,14 @@ std::string EffectPlan::toJson(bool withTimes) const {
   j["effects"]["self_shadowing"] = selfShadowing;
   j["effects"]["interreflection"] = interreflection;
   j["effects"]["bounces"] = bounces;
+  j["effects"]["glossy_indirect"] = glossyIndirect;
   j["effects"]["channels"] = channels;
   j["effects"]["vmf"] = vmf;
   j["analysis"]["flat"] = flat;
   j["analysis"]["rho_max"] = rhoMax;
   j["analysis"]["alpha_max"] = alphaMax;
   j["analysis"]["alpha_mean"] = alphaMean;
+  j["analysis"]["glossy_albedo"] = glossyAlbedo;
   j["analysis"]["order_decay"] = energyBound;
   j["analysis"]["occlusion_tests"] = occlusionTests;
   j["analysis"]["occluded_tests"] = occludedTests;
@@ -200,6 +202,31 @@ EffectPlan planEffects(const PeriodicTracer& tracer, const std::vector<Material>
                                    : "");
     }
     d.value = std::to_string(plan.bounces);
+    plan.decisions.push_back(d);
+  }
+  {
+    // Glossy lobes reflecting the indirect light at the texels: their share of the value is at
+    // most (glossy albedo) × (ρ_max·ᾱ), the indirect light relative to the direct.
+    for (const Material& m : materials) {
+      if (m.type == BrdfType::Lambert || !(m.ks.x > 0 || m.ks.y > 0 || m.ks.z > 0)) continue;
+      Material lobe = m;
+      lobe.kdOverPi = Rgb(0);
+      plan.glossyAlbedo = std::max(plan.glossyAlbedo, double(albedoBound(lobe)));
+    }
+    EffectDecision d{"glossy_indirect", "", "", req.glossyIndirect != Toggle::Auto, 0};
+    const double share = plan.glossyAlbedo * q;
+    if (req.glossyIndirect == Toggle::Auto) {
+      plan.glossyIndirect = plan.interreflection && share >= req.epsilon;
+      d.reason = !plan.interreflection ? "no inter-reflection"
+                 : plan.glossyAlbedo <= 0
+                     ? "no material has a glossy lobe"
+                     : "glossy albedo × ρ_max·ᾱ = " + fmt(plan.glossyAlbedo) + "·" + fmt(q) +
+                           " = " + fmt(share) + (share >= req.epsilon ? " ≥ ε" : " < ε");
+    } else {
+      plan.glossyIndirect = req.glossyIndirect == Toggle::On && plan.interreflection;
+      d.reason = "forced by the command line";
+    }
+    d.value = plan.glossyIndirect ? "on" : "off";
     plan.decisions.push_back(d);
   }
   {

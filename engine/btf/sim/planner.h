@@ -25,10 +25,11 @@ struct PlanRequest {
   double epsilon = 0.01;         // relative energy below which an inter-reflection order is dropped
   Toggle colour = Toggle::Auto;  // On = RGB, Off = one channel
   Toggle vmf = Toggle::Auto;
+  Toggle glossyIndirect = Toggle::Auto;  // glossy lobes reflecting indirect light at the texels
 };
 
 struct EffectDecision {
-  std::string effect;  // self_shadowing, interreflection, bounces, channels, vmf
+  std::string effect;  // self_shadowing, interreflection, bounces, glossy_indirect, channels, vmf
   std::string value;   // on/off, a number
   std::string reason;
   bool forced = false;
@@ -42,6 +43,8 @@ struct EffectPlan {
   int bounces = 1;  // P: reflections along a path (1 = direct only)
   int channels = 3;
   bool vmf = true;
+  bool glossyIndirect = false;  // glossy receivers gather indirect light through their lobe
+  double glossyAlbedo = 0;      // largest directional albedo of a glossy lobe alone
   double rhoMax = 0, alphaMax = 0, alphaMean = 0;
   double energyBound = 0;  // ρ_max·ᾱ: the decay of the inter-reflection orders
   int64_t occlusionTests = 0, occludedTests = 0;

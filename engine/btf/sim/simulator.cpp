@@ -112,7 +112,7 @@ bool anyGlossy(const std::vector<Material>& mats) {
 }  // namespace
 
 GlossyGather SimulationJob::glossyGather() const {
-  if (!anyGlossy(m_materials) || !m_network) return GlossyGather::None;
+  if (!anyGlossy(m_materials) || !m_network || !plan().glossyIndirect) return GlossyGather::None;
   // Exact per-link gathering when its table (links × lights × RGB) fits in an eighth of the
   // memory budget and 512 MiB; the mean incident direction otherwise.
   const uint64_t bytes = uint64_t(m_network->links().size()) * uint64_t(m_dirs.size()) * 12;
@@ -323,6 +323,23 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     const double lightSeconds = light.setupSeconds() + perLight * nD / threads;
     const double gatherSeconds =
         double(samples) * double(nD) * std::max(0.0, withGather - perSampleView) / threads;
+    if (gi && !pl.glossyIndirect && anyGlossy(m_materials)) {
+      // What gathering through the glossy lobes would have cost (mean-direction variant).
+      NetworkLighting lg;
+      {
+        ThreadLimit one(1);
+        lg.solve(
+            *m_network, m_geom, m_materials, m_dirs,
+            [&](int l, const Vec3& p, const Vec3& ng, uint32_t prim) {
+              return direct.lightVisibility(l, p, ng, prim);
+            },
+            P, GlossyGather::MeanDirection, nullptr, nullptr, nCal);
+      }
+      NetworkGather gg(*m_network, lg, m_geom, m_materials);
+      const double withGlossy = timeKernel(mode, &gg, false);
+      plm.find("glossy_indirect")->secondsSaved =
+          double(samples) * double(nD) * std::max(0.0, withGlossy - withGather) / threads;
+    }
     if (gi) {
       e.networkSeconds = 0;  // already built by the planner
       e.lightSeconds = lightSeconds;

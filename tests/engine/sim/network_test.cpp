@@ -436,6 +436,39 @@ TEST(Planner, BounceCountFromTheEnergyBound) {
   EXPECT_EQ(b.plan.bounces, o.plan.maxAutoBounces);
 }
 
+TEST(Planner, WeakGlossyLobesSkipTheIndirectGlossyGather) {
+  // Brick's Blinn-Phong lobe (specular 0.04): off, and forcing it on changes the tile average by
+  // less than ε. Sine's metal lobe: on, and turning it off changes the result by more than ε.
+  SimOptions o = opts(16, "bonn81", 1, 3);
+  const SimRun off = simulate(brick(), o);
+  EXPECT_FALSE(off.plan.glossyIndirect);
+  o.plan.glossyIndirect = Toggle::On;
+  const SimRun on = simulate(brick(), o);
+  EXPECT_TRUE(on.plan.glossyIndirect);
+  auto relDiff = [](const SimRun& a, const SimRun& b) {
+    double d = 0, n = 0;
+    for (size_t k = 0; k < a.avg.size(); ++k) {
+      d += std::abs(a.avg[k] - b.avg[k]);
+      n += std::abs(b.avg[k]);
+    }
+    return d / n;
+  };
+  const double dBrick = relDiff(off, on);
+  EXPECT_GT(dBrick, 0.0);
+  EXPECT_LT(dBrick, o.plan.epsilon);
+  const Scene sine =
+      test::sceneFromJson(test::readFile(test::sourceDir() + "/resources/scenes/sine.json"));
+  SimOptions so = opts(16, "bonn81", 2, 3);
+  const SimRun sOn = simulate(sine, so);
+  EXPECT_TRUE(sOn.plan.glossyIndirect);
+  so.plan.glossyIndirect = Toggle::Off;
+  const SimRun sOff = simulate(sine, so);
+  const double dSine = relDiff(sOff, sOn);
+  std::printf("  glossy indirect: brick %.4f %%, sine %.2f %% of the tile average\n", 100 * dBrick,
+              100 * dSine);
+  EXPECT_GT(dSine, so.plan.epsilon);
+}
+
 TEST(Planner, GreySceneNeedsOneChannel) {
   const Scene s = test::sceneFromJson(scene(lambert(0.6), kSine));
   const SimRun r = simulate(s, opts(8, "bonn81", 1, 3));
