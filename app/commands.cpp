@@ -47,6 +47,16 @@ void parseAnglePair(const std::string& s, const std::string& what, double* theta
     throw Error("invalid " + what + " '" + s + "': θ must be in [0, 90) degrees");
 }
 
+SimOptions sceneOptions(const Scene& scene, const std::string& texels, const std::string& dirs,
+                        int spp, const std::string& shadows) {
+  SimOptions o = optionsFromScene(scene);
+  if (!texels.empty()) parseTexels(texels, &o.nu, &o.nv);
+  if (!dirs.empty()) o.directions = dirs;
+  if (spp != 0) o.spp = spp;
+  if (!shadows.empty()) o.shadows = parseShadowMode(shadows);
+  return o;
+}
+
 void applyEffects(const EffectArgs& e, SimOptions* o) {
   // The scene's simulation block gave the defaults; options given here override them.
   if (!e.method.empty()) o->method = e.method;
@@ -98,11 +108,7 @@ void printEstimate(const SimEstimate& e, const SimOptions& o) {
 
 int simulate(const SimulateArgs& a) {
   const Scene scene = loadScene(a.scene);
-  SimOptions o = optionsFromScene(scene);
-  if (!a.texels.empty()) parseTexels(a.texels, &o.nu, &o.nv);
-  if (!a.dirs.empty()) o.directions = a.dirs;
-  if (a.spp != 0) o.spp = a.spp;
-  if (!a.shadows.empty()) o.shadows = parseShadowMode(a.shadows);
+  SimOptions o = sceneOptions(scene, a.texels, a.dirs, a.spp, a.shadows);
   if (a.seed >= 0) o.seed = uint64_t(a.seed);
   if (a.threads < 0) throw Error("invalid --threads: must be >= 0");
   applyEffects(a.effects, &o);
@@ -487,11 +493,7 @@ int sceneDoc(const std::string& output) {
 
 int plan(const PlanArgs& a) {
   const Scene scene = loadScene(a.scene);
-  SimOptions o = optionsFromScene(scene);
-  if (!a.texels.empty()) parseTexels(a.texels, &o.nu, &o.nv);
-  if (!a.dirs.empty()) o.directions = a.dirs;
-  if (a.spp != 0) o.spp = a.spp;
-  if (!a.shadows.empty()) o.shadows = parseShadowMode(a.shadows);
+  SimOptions o = sceneOptions(scene, a.texels, a.dirs, a.spp, a.shadows);
   applyEffects(a.effects, &o);
   o.progress = false;
   ThreadLimit limit(a.threads);

@@ -88,8 +88,12 @@ int sceneDoc(const std::string& output);
 }  // namespace btf::cli
 namespace btf {
 struct SimOptions;
-}
+struct Scene;
+}  // namespace btf
 namespace btf::cli {
+/// The scene's simulation defaults with the common options applied (empty / 0 = keep).
+SimOptions sceneOptions(const Scene& scene, const std::string& texels, const std::string& dirs,
+                        int spp, const std::string& shadows);
 /// Applies the effect/method/network options to simulation options (validates them).
 void applyEffects(const EffectArgs& e, SimOptions* o);
 

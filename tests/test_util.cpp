@@ -48,4 +48,16 @@ std::string readFile(const std::filesystem::path& p) {
   return s.str();
 }
 
+void addDegenerateTriangles(TileGeometry& g) {
+  const uint32_t b = uint32_t(g.mesh.pos.size());
+  for (Vec3 p : {Vec3(0.2f, 0.2f, 0.3f), Vec3(0.8f, 0.8f, 0.3f), Vec3(0.5f, 0.5f, 0.3f)}) {
+    g.mesh.pos.push_back(p);
+    g.mesh.nrm.push_back(Vec3(0, 0, 1));
+  }
+  g.mesh.tri.push_back({b, b, b + 1});
+  g.mesh.tri.push_back({b, b + 1, b + 2});
+  g.triMaterial.resize(g.mesh.tri.size(), 0);
+  g.triPart.resize(g.mesh.tri.size(), 0);
+}
+
 }  // namespace btf::test

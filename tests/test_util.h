@@ -1,5 +1,6 @@
 // Helpers shared by the engine tests: scenes from inline JSON, temp folders, running btfsim.
 #pragma once
+#include <btf/geometry/mesh.h>
 #include <btf/scene/scene.h>
 
 #include <filesystem>
@@ -14,6 +15,9 @@ std::filesystem::path tempDir(const std::string& name);
 /// Runs btfsim with arguments; returns the exit code and captures stdout+stderr.
 int runBtfsim(const std::string& args, std::string* output, const std::string& env = "");
 std::string sourceDir();
+/// Appends a zero-area triangle (repeated vertex) and a collinear sliver across the tile, with
+/// material and part 0: the degenerate-geometry hard case.
+void addDegenerateTriangles(TileGeometry& g);
 std::string readFile(const std::filesystem::path& p);
 
 }  // namespace btf::test

@@ -17,12 +17,26 @@ DirectionPair pairFromDegrees(double ti, double pi, double to, double po) {
   return {sphericalDir(deg2rad(ti), deg2rad(pi)), sphericalDir(deg2rad(to), deg2rad(po))};
 }
 
+DVec3 tilePosition(uint64_t seed, int a, int row, int n, double Lx, double Ly, uint64_t salt) {
+  const uint64_t h = hashKeys(seed, uint64_t(a), uint64_t(row), 0xb3d + salt);
+  return {(a + uniformFloat(h)) * Lx / n, (row + uniformFloat(mix64(h))) * Ly / n, 0};
+}
+
+std::vector<Rgb> reduceRows(const std::vector<Rgb>& partials, size_t pairs, int n, float scale) {
+  std::vector<Rgb> out(pairs, Rgb(0));
+  for (size_t pi = 0; pi < pairs; ++pi) {
+    Rgb acc(0);
+    for (int r = 0; r < n; ++r) acc += partials[pi * size_t(n) + size_t(r)];
+    out[pi] = acc * scale;
+  }
+  return out;
+}
+
 std::vector<Rgb> averagedBrdf(const PeriodicTracer& tracer, const std::vector<Material>& materials,
                               const std::vector<DirectionPair>& pairs, int n, uint64_t seed,
                               const CancelToken* cancel) {
   if (n < 1) throw Error("samples per axis must be >= 1");
   const TileGeometry& g = tracer.geometry();
-  std::vector<Rgb> out(pairs.size(), Rgb(0));
   std::vector<Rgb> partials(pairs.size() * size_t(n), Rgb(0));
   parallelForChunks(
       int64_t(pairs.size()) * n, 1,
@@ -35,9 +49,7 @@ std::vector<Rgb> averagedBrdf(const PeriodicTracer& tracer, const std::vector<Ma
           const float invCos = 1.0f / float(std::max(pr.wi.z, 1e-7));
           Rgb sum(0);
           for (int a = 0; a < n; ++a) {
-            const uint64_t h = hashKeys(seed, uint64_t(a), uint64_t(row), 0xb3d);
-            const DVec3 p0((a + uniformFloat(h)) * g.Lx / n,
-                           (row + uniformFloat(mix64(h))) * g.Ly / n, 0);
+            const DVec3 p0 = tilePosition(seed, a, row, n, g.Lx, g.Ly, 0);
             float depth;
             const RayHit hit = traceSampleRay(tracer, p0, pr.wo, &depth);
             if (!hit.hit()) continue;
@@ -55,13 +67,7 @@ std::vector<Rgb> averagedBrdf(const PeriodicTracer& tracer, const std::vector<Ma
         }
       },
       cancel);
-  const float inv = 1.0f / float(n) / float(n);
-  for (size_t pi = 0; pi < pairs.size(); ++pi) {
-    Rgb acc(0);
-    for (int r = 0; r < n; ++r) acc += partials[pi * size_t(n) + size_t(r)];
-    out[pi] = acc * inv;
-  }
-  return out;
+  return reduceRows(partials, pairs.size(), n, 1.0f / float(n) / float(n));
 }
 
 }  // namespace btf

@@ -17,6 +17,15 @@ struct DirectionPair {
 /// Pair from angles in degrees; throws btf::Error for θ outside [0, 90) or non-finite values.
 DirectionPair pairFromDegrees(double thetaI, double phiI, double thetaO, double phiO);
 
+/// Position on the reference plane of cell (a, row) of an n×n grid over the tile, jittered inside
+/// its cell by a counter-based hash of (seed, a, row, salt): the positions of every tile-averaged
+/// estimate (averagedBrdf, pathTracedBrdf).
+DVec3 tilePosition(uint64_t seed, int a, int row, int n, double Lx, double Ly, uint64_t salt);
+
+/// Sum of `n` per-row partials of each pair (partials[pair * n + row]), times `scale`: the fixed
+/// summation order keeps the result independent of the thread schedule.
+std::vector<Rgb> reduceRows(const std::vector<Rgb>& partials, size_t pairs, int n, float scale);
+
 /// Averaged aBRDF of each pair with n×n samples; deterministic for a given seed.
 std::vector<Rgb> averagedBrdf(const PeriodicTracer& tracer, const std::vector<Material>& materials,
                               const std::vector<DirectionPair>& pairs, int n, uint64_t seed = 1,

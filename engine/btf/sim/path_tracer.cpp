@@ -76,9 +76,7 @@ std::vector<Rgb> pathTracedBrdf(const PeriodicTracer& tracer,
           for (int a = 0; a < n; ++a)
             for (int q = 0; q < paths; ++q) {
               // Path 0 uses averagedBrdf's positions; further paths are re-jittered.
-              const uint64_t h = hashKeys(settings.seed, uint64_t(a), uint64_t(row), 0xb3d + q);
-              const DVec3 p0((a + uniformFloat(h)) * g.Lx / n,
-                             (row + uniformFloat(mix64(h))) * g.Ly / n, 0);
+              const DVec3 p0 = tilePosition(settings.seed, a, row, n, g.Lx, g.Ly, uint64_t(q));
               Rng rng(hashKeys(settings.seed ^ 0x9a7e, pi, uint64_t(row) * uint64_t(n) + a, q));
               tracePath(tracer, materials, p0, pr.wo, &pr.wi, 1, settings, rng, 1.0f, &sum);
             }
@@ -86,14 +84,7 @@ std::vector<Rgb> pathTracedBrdf(const PeriodicTracer& tracer,
         }
       },
       cancel);
-  std::vector<Rgb> out(pairs.size(), Rgb(0));
-  const float inv = 1.0f / (float(n) * float(n) * float(paths));
-  for (size_t pi = 0; pi < pairs.size(); ++pi) {
-    Rgb acc(0);
-    for (int r = 0; r < n; ++r) acc += partials[pi * size_t(n) + size_t(r)];
-    out[pi] = acc * inv;
-  }
-  return out;
+  return reduceRows(partials, pairs.size(), n, 1.0f / (float(n) * float(n) * float(paths)));
 }
 
 std::vector<Rgb> pathTracedTexels(const PeriodicTracer& tracer,

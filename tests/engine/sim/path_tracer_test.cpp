@@ -27,20 +27,7 @@ struct Fixture {
   explicit Fixture(const std::string& json, bool addDegenerate = false)
       : s(test::sceneFromJson(json)) {
     g = buildTileGeometry(s);
-    if (addDegenerate) {
-      // A zero-area triangle (repeated vertex) and a collinear sliver across the tile.
-      const uint32_t b = uint32_t(g.mesh.pos.size());
-      for (Vec3 p : {Vec3(0.2f, 0.2f, 0.3f), Vec3(0.8f, 0.8f, 0.3f), Vec3(0.5f, 0.5f, 0.3f)}) {
-        g.mesh.pos.push_back(p);
-        g.mesh.nrm.push_back(Vec3(0, 0, 1));
-      }
-      g.mesh.tri.push_back({b, b, b + 1});
-      g.mesh.tri.push_back({b, b + 1, b + 2});
-      for (int k = 0; k < 2; ++k) {
-        g.triMaterial.push_back(0);
-        g.triPart.push_back(0);
-      }
-    }
+    if (addDegenerate) test::addDegenerateTriangles(g);
     tracer = std::make_unique<PeriodicTracer>(g);
     mats = compileMaterials(s);
   }
