@@ -120,9 +120,11 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
   m_nz = std::max(1, int(std::ceil((g.zmax - m_z0) / m_h + 1e-4)));
   m_cz = m_h;
   const size_t voxels = size_t(m_nx) * m_ny * m_nz;
-  if (voxels > (size_t(1) << 24))
-    throw Error("network voxel grid of " + std::to_string(voxels) +
-                " voxels is too large: lower the network density");
+  // Six candidates of 16 bytes per voxel while sampling: at most 256 MiB.
+  if (voxels * 6 > (size_t(1) << 24))
+    throw Error("network voxel grid of " + std::to_string(m_nx) + "x" + std::to_string(m_ny) + "x" +
+                std::to_string(m_nz) +
+                " voxels is too large (at most 2.8 million): lower --network-voxels");
 
   // 1. Voxelise: each voxel keeps the sub-triangle centroid closest to its centre — one per
   // orientation class (the dominant axis of the normal, ±x, ±y, ±z), so that a floor and a wall

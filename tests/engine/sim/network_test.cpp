@@ -263,6 +263,26 @@ TEST(Network, HardCasesStayFinite) {
   }
 }
 
+TEST(Network, BadDensitiesAreClearErrors) {
+  const Scene s = test::sceneFromJson(scene(lambert(0.5), kCavity));
+  const TileGeometry g = buildTileGeometry(s);
+  PeriodicTracer t(g);
+  PointNetwork net;
+  NetworkSettings ns;
+  ns.voxels = 1;
+  EXPECT_THROW(net.build(t, ns), Error);
+  ns.voxels = 1024;  // 1024 × 1024 × 512 voxels over the 0.5-high cavity walls
+  try {
+    net.build(t, ns);
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--network-voxels"), std::string::npos) << e.what();
+  }
+  ns.voxels = 16;
+  ns.links = 0;
+  EXPECT_THROW(net.build(t, ns), Error);
+}
+
 TEST(Network, NetworkIsDeterministicAndPruned) {
   const Scene s = brick();
   const TileGeometry g = buildTileGeometry(s);
