@@ -87,6 +87,16 @@ double albedo(const SimRun& r, const DirectionSet& d, int l) {
   return a;
 }
 
+// Relative L1 difference of two runs' tile averages, relative to `ref`.
+double relDiff(const SimRun& a, const SimRun& ref) {
+  double d = 0, n = 0;
+  for (size_t k = 0; k < ref.avg.size(); ++k) {
+    d += std::abs(a.avg[k] - ref.avg[k]);
+    n += std::abs(ref.avg[k]);
+  }
+  return d / n;
+}
+
 TEST(Network, EnergyMonotoneInPathLengthBoundedAndConvergesToPathTracer) {
   const DirectionSet d = DirectionSet::fromName("8x16");
   for (const char* parts : {kVGroove, kCavity})
@@ -415,14 +425,8 @@ TEST(Planner, CavitiesKeepEveryEffectOn) {
   const SimRun ns = simulate(brick(), noShadow);
   const SimRun full = simulate(brick(), opts(16, "bonn81", 1, r.plan.bounces));
   const SimRun direct = simulate(brick(), opts(16, "bonn81", 1, 1));
-  double dShadow = 0, dGi = 0, norm = 0;
-  for (size_t k = 0; k < full.avg.size(); ++k) {
-    dShadow += std::abs(full.avg[k] - ns.avg[k]);
-    dGi += std::abs(full.avg[k] - direct.avg[k]);
-    norm += std::abs(full.avg[k]);
-  }
-  EXPECT_GT(dShadow / norm, 0.02);
-  EXPECT_GT(dGi / norm, 0.005);
+  EXPECT_GT(relDiff(ns, full), 0.02);
+  EXPECT_GT(relDiff(direct, full), 0.005);
 }
 
 TEST(Planner, BounceCountFromTheEnergyBound) {
@@ -435,12 +439,7 @@ TEST(Planner, BounceCountFromTheEnergyBound) {
   ASSERT_TRUE(a.plan.interreflection);
   EXPECT_LT(a.plan.bounces, o.plan.maxAutoBounces);
   const SimRun many = simulate(s, opts(16, "bonn81", 1, 8));
-  double diff = 0, norm = 0;
-  for (size_t k = 0; k < a.avg.size(); ++k) {
-    diff += std::abs(a.avg[k] - many.avg[k]);
-    norm += std::abs(many.avg[k]);
-  }
-  EXPECT_LT(diff / norm, o.plan.epsilon);
+  EXPECT_LT(relDiff(a, many), o.plan.epsilon);
   // An albedo-1 cavity keeps every order up to the cap.
   const Scene c = test::sceneFromJson(scene(lambert(1.0), kCavity));
   const SimRun b = simulate(c, o);
@@ -456,14 +455,6 @@ TEST(Planner, WeakGlossyLobesSkipTheIndirectGlossyGather) {
   o.plan.glossyIndirect = Toggle::On;
   const SimRun on = simulate(brick(), o);
   EXPECT_TRUE(on.plan.glossyIndirect);
-  auto relDiff = [](const SimRun& a, const SimRun& b) {
-    double d = 0, n = 0;
-    for (size_t k = 0; k < a.avg.size(); ++k) {
-      d += std::abs(a.avg[k] - b.avg[k]);
-      n += std::abs(b.avg[k]);
-    }
-    return d / n;
-  };
   const double dBrick = relDiff(off, on);
   EXPECT_GT(dBrick, 0.0);
   EXPECT_LT(dBrick, o.plan.epsilon);
