@@ -285,6 +285,20 @@ std::vector<float> BtfReader::readTexel(int64_t t) const {
   return out;
 }
 
+void BtfReader::readTexelInto(int64_t t, float* out) const {
+  if (t < 0 || t >= m_info.texels()) throw Error(m_path + ": texel index out of range");
+  preadAll(out, m_info.texelBytes(), m_layout.dataOffset + uint64_t(t) * m_info.texelBytes());
+}
+
+void BtfReader::readValue(int64_t t, int view, int light, float rgb[3]) const {
+  const int n = m_info.nDirs();
+  if (t < 0 || t >= m_info.texels() || view < 0 || view >= n || light < 0 || light >= n)
+    throw Error(m_path + ": value index out of range");
+  preadAll(rgb, 12,
+           m_layout.dataOffset + uint64_t(t) * m_info.texelBytes() +
+               (uint64_t(view) * uint64_t(n) + uint64_t(light)) * 12);
+}
+
 std::vector<float> BtfReader::readImage(int view, int light) const {
   const int n = m_info.nDirs();
   if (view < 0 || view >= n || light < 0 || light >= n)

@@ -98,6 +98,10 @@ class BtfReader {
   std::vector<float> readChunk(int c) const;
   /// All views × lights of one texel: out[(v * nL + l) * 3 + c].
   std::vector<float> readTexel(int64_t texel) const;
+  /// Same into a caller's buffer of nDirs² · 3 floats (no chunk checksum: use verify()).
+  void readTexelInto(int64_t texel, float* out) const;
+  /// One RGB value (12 bytes).
+  void readValue(int64_t texel, int view, int light, float rgb[3]) const;
   /// One (view, light) image: nu × nv RGB, row-major from (u, v) = (0, 0).
   std::vector<float> readImage(int view, int light) const;
   /// VMF of one direction: nu × nv × (coverage, mean depth).

@@ -1,0 +1,279 @@
+#include "cbtf.h"
+
+#include <btf/core/error.h>
+#include <btf/core/hash.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "linalg.h"
+
+namespace btf {
+namespace {
+
+constexpr char kMagic[8] = {'B', 'T', 'F', 'C', 'O', 'M', 'P', '1'};
+constexpr int kFormatVersion = 1;
+
+uint64_t alignUp(uint64_t x, uint64_t a) {
+  return (x + a - 1) / a * a;
+}
+
+const char* typeName(ArrayType t) {
+  return t == ArrayType::F16 ? "f16" : "f32";
+}
+
+std::vector<uint8_t> encodeArray(const CArray& a) {
+  std::vector<uint8_t> out(a.storedBytes());
+  if (a.type == ArrayType::F16) {
+    for (size_t i = 0; i < a.data.size(); ++i) {
+      const uint16_t h = la::floatToHalf(a.data[i]);
+      std::memcpy(&out[2 * i], &h, 2);
+    }
+  } else {
+    for (size_t i = 0; i < a.data.size(); ++i) {
+      const float f = std::isfinite(a.data[i]) ? a.data[i] : 0.f;
+      std::memcpy(&out[4 * i], &f, 4);
+    }
+  }
+  return out;
+}
+
+struct Layout {
+  std::string header;
+  std::vector<uint64_t> offsets;
+  uint64_t total = 0;
+};
+
+Layout layoutOf(const CompressedBtf& c, const std::vector<std::vector<uint8_t>>& bytes) {
+  // Offsets depend on the header length, which contains them: iterate to a fixed point (the
+  // header only grows by digits, so two or three passes settle it).
+  Layout L;
+  L.offsets.assign(c.arrays.size(), 0);
+  for (int pass = 0; pass < 8; ++pass) {
+    nlohmann::ordered_json j;
+    j["format"] = "btfstudio-compressed-btf";
+    j["format_version"] = kFormatVersion;
+    j["codec"] = c.codec;
+    j["colour"] = c.colour;
+    j["params"] = nlohmann::ordered_json::parse(c.paramsJson);
+    j["stats"] = nlohmann::ordered_json::parse(c.statsJson);
+    j["source"] = nlohmann::ordered_json::parse(infoToJson(c.info));
+    nlohmann::ordered_json arr = nlohmann::ordered_json::array();
+    for (size_t i = 0; i < c.arrays.size(); ++i) {
+      const CArray& a = c.arrays[i];
+      nlohmann::ordered_json e;
+      e["name"] = a.name;
+      e["type"] = typeName(a.type);
+      e["rows"] = a.rows;
+      e["cols"] = a.cols;
+      e["offset"] = L.offsets[i];
+      e["bytes"] = a.storedBytes();
+      e["checksum"] = hex64(checksum64(bytes[i].data(), bytes[i].size()));
+      arr.push_back(e);
+    }
+    j["arrays"] = arr;
+    const std::string header = j.dump(1);
+    uint64_t off = alignUp(24 + header.size(), 64);
+    std::vector<uint64_t> offsets;
+    for (const auto& b : bytes) {
+      offsets.push_back(off);
+      off = alignUp(off + b.size(), 64);
+    }
+    const uint64_t total =
+        c.arrays.empty() ? 24 + header.size() : offsets.back() + bytes.back().size();
+    if (offsets == L.offsets && header == L.header) break;
+    L.offsets = offsets;
+    L.header = header;
+    L.total = total;
+  }
+  return L;
+}
+
+}  // namespace
+
+const CArray& CompressedBtf::array(const std::string& name) const {
+  for (const auto& a : arrays)
+    if (a.name == name) return a;
+  throw Error("compressed BTF (" + codec + "): missing array '" + name + "'");
+}
+
+bool CompressedBtf::hasArray(const std::string& name) const {
+  for (const auto& a : arrays)
+    if (a.name == name) return true;
+  return false;
+}
+
+CArray& CompressedBtf::add(std::string name, ArrayType type, int64_t rows, int64_t cols) {
+  CArray a;
+  a.name = std::move(name);
+  a.type = type;
+  a.rows = rows;
+  a.cols = cols;
+  a.data.assign(size_t(rows * cols), 0.f);
+  arrays.push_back(std::move(a));
+  return arrays.back();
+}
+
+void CompressedBtf::quantize() {
+  for (auto& a : arrays)
+    for (float& v : a.data) {
+      if (!std::isfinite(v)) v = 0.f;
+      if (a.type == ArrayType::F16) v = la::halfToFloat(la::floatToHalf(v));
+    }
+}
+
+uint64_t CompressedBtf::payloadBytes() const {
+  uint64_t s = 0;
+  for (const auto& a : arrays) s += a.storedBytes();
+  return s;
+}
+
+uint64_t CompressedBtf::fileBytes() const {
+  std::vector<std::vector<uint8_t>> bytes;
+  for (const auto& a : arrays) bytes.emplace_back(a.storedBytes());  // sizes only matter
+  return layoutOf(*this, bytes).total;
+}
+
+double CompressedBtf::ratio() const {
+  const double raw = double(info.texels()) * double(info.nDirs()) * info.nDirs() * 12.0;
+  return raw / double(std::max<uint64_t>(1, fileBytes()));
+}
+
+void writeCompressed(const std::string& path, const CompressedBtf& c) {
+  std::vector<std::vector<uint8_t>> bytes;
+  for (const auto& a : c.arrays) {
+    if (int64_t(a.data.size()) != a.rows * a.cols)
+      throw Error("compressed BTF: array '" + a.name + "' has the wrong size");
+    bytes.push_back(encodeArray(a));
+  }
+  const Layout L = layoutOf(c, bytes);
+  const std::string partial = path + ".partial";
+  const int fd = ::open(partial.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd < 0) throw Error(partial + ": cannot create (" + std::strerror(errno) + ")");
+  auto put = [&](const void* data, uint64_t n, uint64_t off) {
+    const char* p = static_cast<const char*>(data);
+    while (n > 0) {
+      const ssize_t w = ::pwrite(fd, p, n, off_t(off));
+      if (w <= 0) {
+        const std::string why = std::strerror(errno);
+        ::close(fd);
+        std::filesystem::remove(partial);
+        throw Error(partial + ": write failed (" + why + ")");
+      }
+      p += w;
+      n -= uint64_t(w);
+      off += uint64_t(w);
+    }
+  };
+  const uint64_t hlen = L.header.size(), hsum = checksum64(L.header);
+  put(kMagic, 8, 0);
+  put(&hlen, 8, 8);
+  put(&hsum, 8, 16);
+  put(L.header.data(), hlen, 24);
+  const std::vector<char> zeros(64, 0);
+  uint64_t end = 24 + hlen;
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    if (L.offsets[i] > end) put(zeros.data(), L.offsets[i] - end, end);
+    put(bytes[i].data(), bytes[i].size(), L.offsets[i]);
+    end = L.offsets[i] + bytes[i].size();
+  }
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    std::filesystem::remove(partial);
+    throw Error(partial + ": fsync/close failed");
+  }
+  std::error_code ec;
+  std::filesystem::rename(partial, path, ec);
+  if (ec) throw Error(path + ": cannot rename the finished file into place (" + ec.message() + ")");
+}
+
+bool isCompressedFile(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  char m[8] = {};
+  f.read(m, 8);
+  return f.gcount() == 8 && std::memcmp(m, kMagic, 8) == 0;
+}
+
+CompressedBtf readCompressed(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw Error(path + ": cannot open");
+  f.seekg(0, std::ios::end);
+  const uint64_t size = uint64_t(f.tellg());
+  f.seekg(0);
+  char magic[8] = {};
+  uint64_t hlen = 0, hsum = 0;
+  f.read(magic, 8);
+  f.read(reinterpret_cast<char*>(&hlen), 8);
+  f.read(reinterpret_cast<char*>(&hsum), 8);
+  if (!f || size < 24) throw Error(path + ": truncated file (no complete header)");
+  if (std::memcmp(magic, kMagic, 8) != 0)
+    throw Error(path + ": not a compressed BTF (bad magic bytes)");
+  if (hlen > size - 24) throw Error(path + ": truncated file (header runs past the end)");
+  std::string header(hlen, '\0');
+  f.read(header.data(), std::streamsize(hlen));
+  if (checksum64(header) != hsum) throw Error(path + ": header checksum mismatch (corrupt file)");
+  CompressedBtf c;
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(header);
+    if (j.at("format") != "btfstudio-compressed-btf")
+      throw Error(path + ": not a compressed BTF header");
+    if (j.at("format_version").get<int>() != kFormatVersion)
+      throw Error(path + ": unsupported compressed-BTF version " + j.at("format_version").dump());
+    c.codec = j.at("codec");
+    c.colour = j.at("colour");
+    c.paramsJson = j.at("params").dump();
+    c.statsJson = j.at("stats").dump();
+    c.info = infoFromJson(j.at("source").dump(), path);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error(path + ": malformed compressed-BTF header (" + e.what() + ")");
+  }
+  uint64_t end = 24 + hlen;
+  for (const auto& e : j.at("arrays")) {
+    CArray a;
+    a.name = e.at("name");
+    const std::string type = e.at("type");
+    if (type != "f16" && type != "f32")
+      throw Error(path + ": array '" + a.name + "' has unknown type '" + type + "'");
+    a.type = type == "f16" ? ArrayType::F16 : ArrayType::F32;
+    a.rows = e.at("rows");
+    a.cols = e.at("cols");
+    const uint64_t off = e.at("offset"), bytes = e.at("bytes");
+    if (a.rows < 0 || a.cols < 0 || bytes != a.storedBytes())
+      throw Error(path + ": array '" + a.name + "' has inconsistent dimensions");
+    if (off + bytes > size)
+      throw Error(path + ": truncated file (array '" + a.name + "' ends at byte " +
+                  std::to_string(off + bytes) + ", the file has " + std::to_string(size) + ")");
+    std::vector<uint8_t> raw(bytes);
+    f.seekg(std::streamoff(off));
+    f.read(reinterpret_cast<char*>(raw.data()), std::streamsize(bytes));
+    if (!f) throw Error(path + ": read error in array '" + a.name + "'");
+    if (hex64(checksum64(raw.data(), raw.size())) != e.at("checksum").get<std::string>())
+      throw Error(path + ": checksum mismatch in array '" + a.name + "' (corrupt file)");
+    a.data.resize(size_t(a.rows * a.cols));
+    for (size_t i = 0; i < a.data.size(); ++i) {
+      if (a.type == ArrayType::F16) {
+        uint16_t h;
+        std::memcpy(&h, &raw[2 * i], 2);
+        a.data[i] = la::halfToFloat(h);
+      } else {
+        std::memcpy(&a.data[i], &raw[4 * i], 4);
+      }
+    }
+    end = std::max(end, off + bytes);
+    c.arrays.push_back(std::move(a));
+  }
+  if (end != size)
+    throw Error(path + ": file has " + std::to_string(size - end) +
+                " trailing bytes after the last array (corrupt or concatenated)");
+  return c;
+}
+
+}  // namespace btf

@@ -1,0 +1,55 @@
+// The compressed BTF container (`.cbtf`, docs/compressed-format.md): a checksummed JSON header
+// naming the codec, its settings and the BTF's geometry, then named 2-D arrays (rows × cols,
+// row-major, f16 or f32), each 64-byte aligned and checksummed, laid out so a GLSL shader can
+// bind each array as a texture buffer and decode with the codec's formula.
+#pragma once
+#include <btf/store/btf_store.h>
+
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <vector>
+
+namespace btf {
+
+enum class ArrayType { F16, F32 };
+
+struct CArray {
+  std::string name;
+  ArrayType type = ArrayType::F16;
+  int64_t rows = 0, cols = 0;
+  std::vector<float> data;  // in memory always float; F16 arrays hold values exactly representable
+  float at(int64_t r, int64_t c) const { return data[size_t(r * cols + c)]; }
+  float* row(int64_t r) { return data.data() + r * cols; }
+  const float* row(int64_t r) const { return data.data() + r * cols; }
+  uint64_t storedBytes() const { return uint64_t(rows * cols) * (type == ArrayType::F16 ? 2 : 4); }
+};
+
+struct CompressedBtf {
+  BtfInfo info;        // geometry, directions, provenance of the source (chunking unused)
+  std::string codec;   // "nmf", "svd", "perview", "lpca"
+  std::string colour;  // "rgb" or "ycc"
+  std::string paramsJson = "{}";  // codec settings and chosen ranks (JSON object text)
+  std::string statsJson = "{}";   // encode time, peak memory, training error (JSON object text)
+  std::deque<CArray> arrays;      // deque: references from add() stay valid
+
+  const CArray& array(const std::string& name) const;
+  bool hasArray(const std::string& name) const;
+  CArray& add(std::string name, ArrayType type, int64_t rows, int64_t cols);
+  /// Rounds every F16 array through half precision (what the file will hold) and replaces
+  /// non-finite values by 0.
+  void quantize();
+  uint64_t payloadBytes() const;  // Σ stored array bytes
+  uint64_t fileBytes() const;     // header + alignment + arrays
+  double ratio() const;           // raw float RGB bytes / file bytes
+};
+
+/// Writes `path` atomically (PATH.partial, fsync, rename).
+void writeCompressed(const std::string& path, const CompressedBtf& c);
+/// Reads and verifies (header and every array checksum, exact file size); btf::Error names the
+/// file and what is wrong.
+CompressedBtf readCompressed(const std::string& path);
+/// True when the file starts with the compressed magic bytes.
+bool isCompressedFile(const std::string& path);
+
+}  // namespace btf

@@ -1,0 +1,120 @@
+// The common codec interface (docs/compression.md). Every codec — the thesis's per-texel
+// NMF + PCA and the baselines (global SVD, per-view PCA, clustered local PCA) — encodes from a
+// stream of texels (any chunking, so the simulator can feed it directly) after an optional
+// training pass on a fixed, stratified subset of texels, and decodes through one Decoder API.
+// Texel values are [view][light][rgb] float aBRDF, as in the raw store.
+#pragma once
+#include <btf/compress/cbtf.h>
+#include <btf/compress/linalg.h>
+#include <btf/core/parallel.h>
+#include <btf/store/btf_store.h>
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace btf {
+
+class ProgressReporter;
+
+struct CodecSettings {
+  std::string codec = "nmf";   // nmf | svd | perview | lpca
+  std::string colour = "ycc";  // rgb | ycc (Y = mean of RGB, U = R − Y, V = B − Y)
+  // Components: explicit (> 0) or from a target (relative RMSE or ratio); else the default
+  // target below.
+  int components = 0;
+  double targetRmse = 0;   // relative RMSE (RMSE / RMS of the data)
+  double targetRatio = 0;  // raw float RGB bytes / compressed bytes
+  // Per-texel NMF (§3.4).
+  double beta = 0.995;
+  la::BetaMode betaMode = la::BetaMode::Energy;
+  la::NmfSolver solver = la::NmfSolver::Hals;
+  int maxRank = 8;
+  int nmfIterations = 60;
+  double nmfTolerance = 1e-4;
+  // Baselines.
+  int trainTexels = 256;  // stratified training subset (per-view, global SVD, clustered PCA)
+  int clusters = 8;       // clustered PCA
+  bool half = true;       // f16 arrays (else f32)
+  uint64_t seed = 1;
+};
+
+/// The codec names, in the order reports list them.
+const std::vector<std::string>& codecNames();
+/// Checks names and ranges; btf::Error names the option.
+void validate(const CodecSettings& s);
+std::string settingsJson(const CodecSettings& s);
+
+/// Colour decorrelation shared by all codecs.
+int colourChannels(const std::string& colour);  // 3 for both models (ycc keeps 3 channels)
+bool channelNonNegative(const std::string& colour, int c);
+void toColour(const std::string& colour, const float rgb[3], float out[3]);
+void fromColour(const std::string& colour, const float in[3], float rgb[3]);
+
+class Encoder {
+ public:
+  virtual ~Encoder() = default;
+  /// Texels the codec needs before the stream (sorted; empty for per-texel codecs).
+  virtual std::vector<int64_t> trainingTexels() const { return {}; }
+  /// Their values, in trainingTexels() order, texel-major.
+  virtual void train(const float* /*values*/) {}
+  /// Texels [t0, t1), texel-major. Called in any order, one call at a time.
+  virtual void add(int64_t t0, int64_t t1, const float* values) = 0;
+  /// Builds the arrays (quantized as they will be stored).
+  virtual CompressedBtf finish() = 0;
+  /// Memory the encoder holds (for the budget check and the estimate).
+  virtual uint64_t memoryBytes() const = 0;
+};
+
+/// Stratified subset of n texels over the Nu × Nv grid (one per cell of a near-square grid of
+/// cells, jittered by a hash of seed): fixed for a given (Nu, Nv, n, seed).
+std::vector<int64_t> stratifiedTexels(int nu, int nv, int n, uint64_t seed);
+
+std::unique_ptr<Encoder> makeEncoder(const CodecSettings& s, const BtfInfo& info,
+                                     const CancelToken* cancel = nullptr);
+
+class Decoder {
+ public:
+  virtual ~Decoder() = default;
+  const BtfInfo& info() const { return m_info; }
+  /// Every value of a texel: out[(view · nL + light) · 3 + c], RGB, ≥ 0 and finite.
+  virtual void texel(int64_t t, float* out) const = 0;
+  /// One value (what a shader does).
+  virtual std::array<float, 3> value(int64_t t, int view, int light) const = 0;
+  /// aBRDF at a texel for any directions: interpolated between the set's directions (bilinear
+  /// on θ × φ grids, ring-linear on the Bonn sets; DirectionSet::interpolate).
+  std::array<float, 3> evaluate(int64_t t, double thetaI, double phiI, double thetaO,
+                                double phiO) const;
+  /// Same at a tile position (x, y) in texel units, bilinear between the four nearest texels
+  /// (periodic).
+  std::array<float, 3> evaluateAt(double x, double y, double thetaI, double phiI, double thetaO,
+                                  double phiO) const;
+  virtual std::string kind() const = 0;
+
+ protected:
+  explicit Decoder(BtfInfo info);
+  BtfInfo m_info;
+  std::shared_ptr<const class DirectionSet> m_dirs;
+};
+
+std::unique_ptr<Decoder> makeDecoder(CompressedBtf c);
+/// Opens a raw store or a compressed file (by magic bytes) behind the Decoder API.
+std::unique_ptr<Decoder> openBtf(const std::string& path);
+
+// Codec factories (codec_*.cpp).
+std::unique_ptr<Encoder> makeNmfEncoder(const CodecSettings&, const BtfInfo&, const CancelToken*);
+std::unique_ptr<Encoder> makeSvdEncoder(const CodecSettings&, const BtfInfo&, const CancelToken*);
+std::unique_ptr<Encoder> makePerViewEncoder(const CodecSettings&, const BtfInfo&,
+                                            const CancelToken*);
+std::unique_ptr<Encoder> makeLpcaEncoder(const CodecSettings&, const BtfInfo&, const CancelToken*);
+std::unique_ptr<Decoder> makeNmfDecoder(CompressedBtf c);
+std::unique_ptr<Decoder> makeSvdDecoder(CompressedBtf c);
+std::unique_ptr<Decoder> makePerViewDecoder(CompressedBtf c);
+std::unique_ptr<Decoder> makeLpcaDecoder(CompressedBtf c);
+
+/// Largest component count c ≥ 1 whose size model fits raw/ratio (sizes in bytes of c).
+int componentsForRatio(double rawBytes, double ratio, int maxC,
+                       const std::function<double(int)>& bytesOf);
+
+}  // namespace btf

@@ -1,0 +1,349 @@
+// The thesis's codec (§3.4): per texel and channel, the views × lights aBRDF matrix is factorised
+// by NMF at the rank the β rule selects, initialised by NNDSVD; signed chroma channels (colour
+// model ycc) take the truncated SVD instead. The unit-norm view and light factors of all texels
+// are then projected on uncentred PCA bases (one per channel and side).
+//
+// Arrays, per channel c: c{c}.basis_view (nV × Cv), c{c}.basis_light (nL × Cl),
+// c{c}.coef_view (texels × K·Cv) with the factor scale folded in, c{c}.coef_light (texels × K·Cl);
+// K slots per texel (the largest rank; unused slots are zero).
+//   value_c(t, v, l) = Σ_j (Σ_a basis_view[v, a] coef_view[t, j·Cv + a])
+//                        · (Σ_b basis_light[l, b] coef_light[t, j·Cl + b])
+#include <btf/core/error.h>
+#include <btf/core/sysinfo.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <nlohmann/json.hpp>
+
+#include "codec.h"
+
+namespace btf {
+namespace {
+
+struct TexelFactors {
+  std::vector<float> scale;  // per factor
+  std::vector<float> view;   // k × nV, unit rows
+  std::vector<float> light;  // k × nL, unit rows
+  int rank() const { return int(scale.size()); }
+};
+
+class NmfEncoder final : public Encoder {
+ public:
+  NmfEncoder(const CodecSettings& s, const BtfInfo& info, const CancelToken* cancel)
+      : m_s(s), m_info(info), m_cancel(cancel) {
+    m_n = info.nDirs();
+    m_f.resize(size_t(info.texels()) * 3);
+    m_done.assign(size_t(info.texels()), 0);
+  }
+
+  void add(int64_t t0, int64_t t1, const float* values) override {
+    const auto start = std::chrono::steady_clock::now();
+    const size_t stride = size_t(m_n) * m_n * 3;
+    parallelForChunks(
+        t1 - t0, 1,
+        [&](int64_t b, int64_t e) {
+          la::MatF A(m_n, m_n);
+          double err2 = 0, energy = 0;
+          int64_t iters = 0, solves = 0;
+          for (int64_t k = b; k < e; ++k) {
+            const float* x = values + size_t(k) * stride;
+            for (int c = 0; c < 3; ++c) {
+              for (int v = 0; v < m_n; ++v)
+                for (int l = 0; l < m_n; ++l) {
+                  float col[3];
+                  toColour(m_s.colour, x + (size_t(v) * m_n + l) * 3, col);
+                  A(v, l) = col[c];
+                }
+              factor(A, c, m_f[size_t(t0 + k) * 3 + size_t(c)], err2, energy, iters, solves);
+            }
+            m_done[size_t(t0 + k)] = 1;
+          }
+          std::lock_guard<std::mutex> lock(m_mutex);
+          m_err2 += err2;
+          m_energy += energy;
+          m_iters += iters;
+          m_solves += solves;
+        },
+        m_cancel);
+    m_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+
+  uint64_t memoryBytes() const override {
+    // Estimated from the ranks so far (maxRank bound before any texel).
+    return uint64_t(m_info.texels()) * 3 * uint64_t(m_s.maxRank) * uint64_t(2 * m_n + 1) * 4;
+  }
+
+  CompressedBtf finish() override {
+    for (size_t t = 0; t < m_done.size(); ++t)
+      if (!m_done[t]) throw Error("nmf encoder: texel " + std::to_string(t) + " was never added");
+    const auto start = std::chrono::steady_clock::now();
+    CompressedBtf out;
+    out.info = m_info;
+    out.codec = "nmf";
+    out.colour = m_s.colour;
+    const int64_t T = m_info.texels();
+    const ArrayType type = m_s.half ? ArrayType::F16 : ArrayType::F32;
+    const double raw = double(T) * m_n * m_n * 12.0;
+    nlohmann::ordered_json params = nlohmann::ordered_json::parse(settingsJson(m_s));
+    nlohmann::ordered_json chans = nlohmann::ordered_json::array();
+    // Slots and factor counts per channel.
+    int K[3] = {0, 0, 0};
+    int64_t nf[3] = {0, 0, 0};
+    std::vector<int64_t> rankHist(size_t(m_s.maxRank) + 1, 0);
+    for (int64_t t = 0; t < T; ++t)
+      for (int c = 0; c < 3; ++c) {
+        const int r = m_f[size_t(t) * 3 + size_t(c)].rank();
+        K[c] = std::max(K[c], r);
+        nf[c] += r;
+        if (c == 0) rankHist[size_t(r)]++;
+      }
+    // Components: explicit, from the ratio's size model, or from the error target.
+    const int maxC = std::min(m_n, 256);
+    auto bytesOf = [&](int C) {
+      double b = 0;
+      for (int c = 0; c < 3; ++c)
+        if (K[c] > 0) b += double(2 * m_n * C) + double(T) * K[c] * 2 * C;
+      return b * (m_s.half ? 2 : 4);
+    };
+    int fixedC = m_s.components;
+    if (fixedC == 0 && m_s.targetRatio > 0)
+      fixedC = componentsForRatio(raw, m_s.targetRatio, maxC, bytesOf);
+    const double nmfRel2 = m_energy > 0 ? m_err2 / m_energy : 0;
+    const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
+    // Error left to the PCA stage, split between the view and light sides.
+    const double pcaBudget2 = std::max(target * target - nmfRel2, 0.25 * target * target) / 2;
+    for (int c = 0; c < 3; ++c) {
+      nlohmann::ordered_json cj;
+      cj["channel"] = c;
+      cj["slots"] = K[c];
+      cj["factors"] = nf[c];
+      int Cs[2] = {0, 0};
+      la::Basis bases[2];
+      if (K[c] > 0) {
+        for (int side = 0; side < 2; ++side) {
+          // Samples: s_j · unit factor (the reconstruction error a side's projection error causes
+          // scales with s_j).
+          la::MatF X(m_n, nf[c]);
+          int64_t col = 0;
+          for (int64_t t = 0; t < T; ++t) {
+            const TexelFactors& f = m_f[size_t(t) * 3 + size_t(c)];
+            for (int j = 0; j < f.rank(); ++j, ++col) {
+              const float* src = (side == 0 ? f.view.data() : f.light.data()) + size_t(j) * m_n;
+              for (int i = 0; i < m_n; ++i) X(i, col) = f.scale[size_t(j)] * src[i];
+            }
+          }
+          bases[side] = la::pcaBasis(X, maxC);
+          int C = fixedC;
+          if (C == 0) {
+            // Residual as a fraction of the data energy (Σ s_j² ≈ ‖A‖²).
+            const double frac =
+                m_energy > 0 ? pcaBudget2 * m_channelEnergy(c) / bases[side].total : 0;
+            C = std::max(1, la::componentsForResidual(bases[side], frac));
+          }
+          Cs[side] = std::min<int>(C, int(bases[side].B.cols()));
+        }
+      }
+      const int Cv = Cs[0], Cl = Cs[1];
+      cj["components_view"] = Cv;
+      cj["components_light"] = Cl;
+      chans.push_back(cj);
+      const std::string p = "c" + std::to_string(c) + ".";
+      CArray& bv = out.add(p + "basis_view", type, m_n, Cv);
+      CArray& bl = out.add(p + "basis_light", type, m_n, Cl);
+      for (int i = 0; i < m_n; ++i) {
+        for (int a = 0; a < Cv; ++a) bv.data[size_t(i) * Cv + a] = bases[0].B(i, a);
+        for (int a = 0; a < Cl; ++a) bl.data[size_t(i) * Cl + a] = bases[1].B(i, a);
+      }
+      CArray& cv = out.add(p + "coef_view", type, T, int64_t(K[c]) * Cv);
+      CArray& cl = out.add(p + "coef_light", type, T, int64_t(K[c]) * Cl);
+      // Quantize the bases first so the coefficients are fitted to what is stored.
+      const la::MatF Bv = quantizedBasis(bv, Cv), Bl = quantizedBasis(bl, Cl);
+      parallelForChunks(T, 256, [&](int64_t b, int64_t e) {
+        for (int64_t t = b; t < e; ++t) {
+          const TexelFactors& f = m_f[size_t(t) * 3 + size_t(c)];
+          for (int j = 0; j < f.rank(); ++j) {
+            Eigen::Map<const la::VecF> w(f.view.data() + size_t(j) * m_n, m_n);
+            Eigen::Map<const la::VecF> h(f.light.data() + size_t(j) * m_n, m_n);
+            const la::VecF a = Bv.transpose() * (f.scale[size_t(j)] * w);
+            const la::VecF bb = Bl.transpose() * h;
+            for (int q = 0; q < Cv; ++q) cv.data[size_t(t * cv.cols + j * Cv + q)] = a[q];
+            for (int q = 0; q < Cl; ++q) cl.data[size_t(t * cl.cols + j * Cl + q)] = bb[q];
+          }
+        }
+      });
+    }
+    out.quantize();
+    params["channels"] = chans;
+    nlohmann::ordered_json hist = nlohmann::ordered_json::array();
+    for (auto h : rankHist) hist.push_back(h);
+    params["rank_histogram_channel0"] = hist;
+    out.paramsJson = params.dump();
+    nlohmann::ordered_json st;
+    st["factorise_seconds"] = m_seconds;
+    st["pca_seconds"] =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    st["nmf_relative_rmse"] = std::sqrt(nmfRel2);
+    st["mean_nmf_iterations"] = m_solves ? double(m_iters) / double(m_solves) : 0.0;
+    out.statsJson = st.dump();
+    return out;
+  }
+
+ private:
+  double m_channelEnergy(int c) const { return m_chanEnergy[c]; }
+
+  static la::MatF quantizedBasis(const CArray& a, int C) {
+    la::MatF B(a.rows, C);
+    for (int64_t i = 0; i < a.rows; ++i)
+      for (int q = 0; q < C; ++q)
+        B(i, q) =
+            a.type == ArrayType::F16 ? la::halfToFloat(la::floatToHalf(a.at(i, q))) : a.at(i, q);
+    return B;
+  }
+
+  void factor(const la::MatF& A, int c, TexelFactors& out, double& err2, double& energy,
+              int64_t& iters, int64_t& solves) {
+    const double norm2 = A.cast<double>().squaredNorm();
+    energy += norm2;
+    {
+      std::lock_guard<std::mutex> lock(m_mutex);
+      m_chanEnergy[c] += norm2;
+    }
+    out = TexelFactors{};
+    if (!(norm2 > 0)) return;  // all-zero texel (fully shadowed): rank 0
+    const la::Svd svd = la::truncatedSvd(A, m_s.maxRank, 2, m_s.seed);
+    int k;
+    if (m_s.betaMode == la::BetaMode::Singular)
+      k = la::rankForBeta(la::singularValues(A), m_s.beta, la::BetaMode::Singular, norm2,
+                          m_s.maxRank);
+    else
+      k = la::rankForBeta(svd.s, m_s.beta, la::BetaMode::Energy, norm2, m_s.maxRank);
+    if (k == 0) return;
+    la::MatF W, H;
+    if (channelNonNegative(m_s.colour, c)) {
+      la::NmfResult r = la::nmf(A, k, svd, m_s.solver, m_s.nmfIterations, m_s.nmfTolerance);
+      W = std::move(r.W);
+      H = std::move(r.H);
+      iters += r.iterations;
+      ++solves;
+      err2 += r.objective.empty() ? norm2 : r.objective.back();
+    } else {
+      W = svd.U.leftCols(k);
+      H = svd.s.head(k).cast<float>().asDiagonal() * svd.V.leftCols(k).transpose();
+      double kept = 0;
+      for (int i = 0; i < k; ++i) kept += svd.s[i] * svd.s[i];
+      err2 += std::max(0.0, norm2 - kept);
+    }
+    for (int j = 0; j < W.cols(); ++j) {
+      const double a = W.col(j).norm(), b = H.row(j).norm();
+      if (!(a > 0 && b > 0) || !std::isfinite(a * b)) continue;
+      out.scale.push_back(float(a * b));
+      for (int i = 0; i < m_n; ++i) out.view.push_back(float(W(i, j) / a));
+      for (int i = 0; i < m_n; ++i) out.light.push_back(float(H(j, i) / b));
+    }
+  }
+
+  CodecSettings m_s;
+  BtfInfo m_info;
+  const CancelToken* m_cancel;
+  int m_n = 0;
+  std::vector<TexelFactors> m_f;
+  std::vector<uint8_t> m_done;
+  std::mutex m_mutex;
+  double m_err2 = 0, m_energy = 0, m_seconds = 0;
+  double m_chanEnergy[3] = {0, 0, 0};
+  int64_t m_iters = 0, m_solves = 0;
+};
+
+class NmfDecoder final : public Decoder {
+ public:
+  explicit NmfDecoder(CompressedBtf c) : Decoder(c.info), m_c(std::move(c)) {
+    m_n = m_info.nDirs();
+    for (int ch = 0; ch < 3; ++ch) {
+      const std::string p = "c" + std::to_string(ch) + ".";
+      m_bv[ch] = &m_c.array(p + "basis_view");
+      m_bl[ch] = &m_c.array(p + "basis_light");
+      m_cv[ch] = &m_c.array(p + "coef_view");
+      m_cl[ch] = &m_c.array(p + "coef_light");
+      const int64_t Cv = m_bv[ch]->cols, Cl = m_bl[ch]->cols;
+      if (m_bv[ch]->rows != m_n || m_bl[ch]->rows != m_n || m_cv[ch]->rows != m_info.texels() ||
+          m_cl[ch]->rows != m_info.texels() || (Cv > 0 && m_cv[ch]->cols % Cv) ||
+          (Cl > 0 && m_cl[ch]->cols % Cl) ||
+          (Cv > 0 && Cl > 0 && m_cv[ch]->cols / Cv != m_cl[ch]->cols / Cl))
+        throw Error("compressed BTF (nmf): channel " + std::to_string(ch) +
+                    " arrays have inconsistent dimensions");
+      m_K[ch] = Cv > 0 ? int(m_cv[ch]->cols / Cv) : 0;
+      m_Bv[ch] = toMat(*m_bv[ch]);
+      m_Bl[ch] = toMat(*m_bl[ch]);
+    }
+  }
+  std::string kind() const override { return "nmf"; }
+
+  void texel(int64_t t, float* out) const override {
+    la::MatF M[3];
+    for (int ch = 0; ch < 3; ++ch) {
+      const int K = m_K[ch];
+      if (K == 0) {
+        M[ch] = la::MatF::Zero(m_n, m_n);
+        continue;
+      }
+      const int Cv = int(m_bv[ch]->cols), Cl = int(m_bl[ch]->cols);
+      Eigen::Map<const la::MatF> a(m_cv[ch]->row(t), Cv, K);  // column j = factor j
+      Eigen::Map<const la::MatF> b(m_cl[ch]->row(t), Cl, K);
+      M[ch] = (m_Bv[ch] * a) * (m_Bl[ch] * b).transpose();
+    }
+    for (int v = 0; v < m_n; ++v)
+      for (int l = 0; l < m_n; ++l) {
+        const float in[3] = {M[0](v, l), M[1](v, l), M[2](v, l)};
+        fromColour(m_c.colour, in, out + (size_t(v) * m_n + l) * 3);
+      }
+  }
+
+  std::array<float, 3> value(int64_t t, int view, int light) const override {
+    float in[3] = {0, 0, 0};
+    for (int ch = 0; ch < 3; ++ch) {
+      const int Cv = int(m_bv[ch]->cols), Cl = int(m_bl[ch]->cols);
+      const float* a = m_cv[ch]->row(t);
+      const float* b = m_cl[ch]->row(t);
+      const float* bv = m_bv[ch]->row(view);
+      const float* bl = m_bl[ch]->row(light);
+      double acc = 0;
+      for (int j = 0; j < m_K[ch]; ++j) {
+        double x = 0, y = 0;
+        for (int q = 0; q < Cv; ++q) x += double(bv[q]) * a[j * Cv + q];
+        for (int q = 0; q < Cl; ++q) y += double(bl[q]) * b[j * Cl + q];
+        acc += x * y;
+      }
+      in[ch] = float(acc);
+    }
+    std::array<float, 3> rgb{};
+    fromColour(m_c.colour, in, rgb.data());
+    return rgb;
+  }
+
+ private:
+  static la::MatF toMat(const CArray& a) {
+    la::MatF M(a.rows, a.cols);
+    for (int64_t i = 0; i < a.rows; ++i)
+      for (int64_t j = 0; j < a.cols; ++j) M(i, j) = a.at(i, j);
+    return M;
+  }
+  CompressedBtf m_c;
+  int m_n = 0;
+  int m_K[3] = {0, 0, 0};
+  const CArray *m_bv[3], *m_bl[3], *m_cv[3], *m_cl[3];
+  la::MatF m_Bv[3], m_Bl[3];
+};
+
+}  // namespace
+
+std::unique_ptr<Encoder> makeNmfEncoder(const CodecSettings& s, const BtfInfo& info,
+                                        const CancelToken* cancel) {
+  return std::make_unique<NmfEncoder>(s, info, cancel);
+}
+std::unique_ptr<Decoder> makeNmfDecoder(CompressedBtf c) {
+  return std::make_unique<NmfDecoder>(std::move(c));
+}
+
+}  // namespace btf

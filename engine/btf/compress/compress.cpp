@@ -1,0 +1,197 @@
+#include "compress.h"
+
+#include <btf/core/error.h>
+#include <btf/core/progress.h>
+#include <btf/core/sysinfo.h>
+#include <btf/io/image_io.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <nlohmann/json.hpp>
+
+namespace btf {
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+}  // namespace
+
+CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, bool progress,
+                            const CancelToken* cancel, CompressReport* report) {
+  const auto start = Clock::now();
+  BtfReader in(inPath);
+  const BtfInfo& info = in.info();
+  auto enc = makeEncoder(s, info, cancel);
+  CompressReport r;
+  r.texels = info.texels();
+  const auto train = enc->trainingTexels();
+  const size_t stride = size_t(info.nDirs()) * info.nDirs() * 3;
+  if (!train.empty()) {
+    const auto t0 = Clock::now();
+    std::vector<float> values(train.size() * stride);
+    ProgressReporter pr("training read", int64_t(train.size()), progress);
+    for (size_t i = 0; i < train.size(); ++i) {
+      in.readTexelInto(train[i], values.data() + i * stride);
+      pr.add(1);
+    }
+    pr.finish();
+    enc->train(values.data());
+    r.trainSeconds = since(t0);
+  }
+  {
+    const auto t0 = Clock::now();
+    ProgressReporter pr("encode " + s.codec, info.texels(), progress);
+    for (int c = 0; c < info.chunks(); ++c) {
+      if (cancel && cancel->cancelled()) throw Error("compression cancelled");
+      const std::vector<float> chunk = in.readChunk(c);
+      enc->add(info.chunkBegin(c), info.chunkEnd(c), chunk.data());
+      pr.add(info.chunkEnd(c) - info.chunkBegin(c));
+    }
+    if (cancel && cancel->cancelled()) throw Error("compression cancelled");
+    pr.finish();
+    r.encodeSeconds = since(t0);
+  }
+  const auto f0 = Clock::now();
+  CompressedBtf out = enc->finish();
+  r.finishSeconds = since(f0);
+  r.seconds = since(start);
+  r.peakRssBytes = peakRssBytes();
+  r.fileBytes = out.fileBytes();
+  r.ratio = out.ratio();
+  if (report) *report = r;
+  return out;
+}
+
+ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, int worst,
+                        const CancelToken* cancel) {
+  const BtfInfo& a = ref.info();
+  const BtfInfo& b = test.info();
+  if (a.nu != b.nu || a.nv != b.nv)
+    throw Error("compare: texel grids differ (" + std::to_string(a.nu) + "×" +
+                std::to_string(a.nv) + " vs " + std::to_string(b.nu) + "×" + std::to_string(b.nv) +
+                ")");
+  if (a.dirsDeg != b.dirsDeg)
+    throw Error("compare: direction sets differ ('" + a.directionSet + "' vs '" + b.directionSet +
+                "')");
+  ErrorReport r;
+  r.nu = a.nu;
+  r.nv = a.nv;
+  r.nDirs = a.nDirs();
+  const int64_t T = a.texels();
+  const size_t lv = size_t(r.nDirs) * r.nDirs;
+  r.texelRmse.assign(size_t(T), 0.f);
+  std::vector<double> dirSum(lv, 0.0);
+  double sumErr = 0, sumRef = 0, peak = 0, maxAbs = 0;
+  std::mutex mutex;
+  ProgressReporter pr("compare", T, progress);
+  parallelForChunks(
+      T, 8,
+      [&](int64_t t0, int64_t t1) {
+        std::vector<float> x(lv * 3), y(lv * 3);
+        std::vector<double> dirs(lv, 0.0);
+        double se = 0, sr = 0, pk = 0, mx = 0;
+        for (int64_t t = t0; t < t1; ++t) {
+          ref.texel(t, x.data());
+          test.texel(t, y.data());
+          double te = 0;
+          for (size_t k = 0; k < lv; ++k) {
+            double de = 0;
+            for (int c = 0; c < 3; ++c) {
+              const double xv = x[k * 3 + size_t(c)], d = xv - y[k * 3 + size_t(c)];
+              de += d * d;
+              sr += xv * xv;
+              pk = std::max(pk, xv);
+              mx = std::max(mx, std::abs(d));
+            }
+            dirs[k] += de;
+            te += de;
+          }
+          se += te;
+          r.texelRmse[size_t(t)] = float(std::sqrt(te / double(lv * 3)));
+          pr.add(1);
+        }
+        std::lock_guard<std::mutex> lock(mutex);
+        for (size_t k = 0; k < lv; ++k) dirSum[k] += dirs[k];
+        sumErr += se;
+        sumRef += sr;
+        peak = std::max(peak, pk);
+        maxAbs = std::max(maxAbs, mx);
+      },
+      cancel);
+  if (cancel && cancel->cancelled()) throw Error("compare cancelled");
+  pr.finish();
+  r.values = T * int64_t(lv) * 3;
+  r.rmse = std::sqrt(sumErr / double(r.values));
+  r.refRms = std::sqrt(sumRef / double(r.values));
+  r.relRmse = r.refRms > 0 ? r.rmse / r.refRms : (r.rmse > 0 ? 1.0 : 0.0);
+  r.peak = peak;
+  r.maxAbs = maxAbs;
+  r.psnr = r.rmse > 0 && peak > 0 ? 20.0 * std::log10(peak / r.rmse) : 999.0;
+  r.dirRmse.resize(lv);
+  for (size_t k = 0; k < lv; ++k) r.dirRmse[k] = float(std::sqrt(dirSum[k] / double(T * 3)));
+  auto topOf = [worst](const std::vector<float>& v) {
+    std::vector<int64_t> idx(v.size());
+    for (size_t i = 0; i < v.size(); ++i) idx[i] = int64_t(i);
+    const size_t n = std::min(v.size(), size_t(std::max(worst, 0)));
+    std::partial_sort(idx.begin(), idx.begin() + long(n), idx.end(),
+                      [&](int64_t p, int64_t q) { return v[size_t(p)] > v[size_t(q)]; });
+    std::vector<ErrorReport::Worst> out;
+    for (size_t i = 0; i < n; ++i) out.push_back({idx[i], v[size_t(idx[i])]});
+    return out;
+  };
+  r.worstTexels = topOf(r.texelRmse);
+  r.worstDirections = topOf(r.dirRmse);
+  return r;
+}
+
+void writeErrorMaps(const ErrorReport& r, const std::string& dir) {
+  std::filesystem::create_directories(dir);
+  auto write = [&](const std::string& name, int w, int h, const std::vector<float>& v) {
+    std::vector<float> rgb(v.size() * 3);
+    float mx = 0;
+    for (size_t i = 0; i < v.size(); ++i) {
+      rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = v[i];
+      mx = std::max(mx, v[i]);
+    }
+    writeRgbImage(dir + "/" + name + ".exr", w, h, rgb);
+    writeRgbImage(dir + "/" + name + ".png", w, h, rgb, mx > 0 ? 1.f / mx : 1.f);
+  };
+  write("texel_rmse", r.nu, r.nv, r.texelRmse);
+  write("direction_rmse", r.nDirs, r.nDirs, r.dirRmse);
+}
+
+std::string errorReportJson(const ErrorReport& r) {
+  nlohmann::ordered_json j;
+  j["values"] = r.values;
+  j["rmse"] = r.rmse;
+  j["relative_rmse"] = r.relRmse;
+  j["psnr_db"] = r.psnr;
+  j["peak"] = r.peak;
+  j["reference_rms"] = r.refRms;
+  j["max_abs_error"] = r.maxAbs;
+  auto list = [&](const std::vector<ErrorReport::Worst>& w, bool texel) {
+    nlohmann::ordered_json a = nlohmann::ordered_json::array();
+    for (const auto& x : w) {
+      nlohmann::ordered_json e;
+      if (texel) {
+        e["u"] = x.index % r.nu;
+        e["v"] = x.index / r.nu;
+      } else {
+        e["view"] = x.index / r.nDirs;
+        e["light"] = x.index % r.nDirs;
+      }
+      e["rmse"] = x.rmse;
+      a.push_back(e);
+    }
+    return a;
+  };
+  j["worst_texels"] = list(r.worstTexels, true);
+  j["worst_directions"] = list(r.worstDirections, false);
+  return j.dump(1);
+}
+
+}  // namespace btf

@@ -1,0 +1,43 @@
+// Compression jobs and error metrics (docs/compression.md): compress a stored raw BTF chunk by
+// chunk (memory bounded by the encoder, not the data), and compare two BTFs of the same geometry
+// (raw or compressed) with ratio, RMSE, relative RMSE, PSNR and per-texel / per-direction maps.
+#pragma once
+#include <btf/compress/codec.h>
+
+#include <string>
+#include <vector>
+
+namespace btf {
+
+struct CompressReport {
+  double seconds = 0, trainSeconds = 0, encodeSeconds = 0, finishSeconds = 0;
+  uint64_t peakRssBytes = 0, fileBytes = 0;
+  double ratio = 0;
+  int64_t texels = 0;
+};
+
+/// Encodes every texel of a raw store (training texels first). Progress on stderr when asked.
+CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, bool progress,
+                            const CancelToken* cancel, CompressReport* report);
+
+struct ErrorReport {
+  int nu = 0, nv = 0, nDirs = 0;
+  double rmse = 0, refRms = 0, relRmse = 0, psnr = 0, peak = 0, maxAbs = 0;
+  int64_t values = 0;
+  std::vector<float> texelRmse;  // nu × nv, row-major from (u, v) = (0, 0)
+  std::vector<float> dirRmse;    // nViews × nLights
+  struct Worst {
+    int64_t index = 0;  // texel, or view · nL + light
+    double rmse = 0;
+  };
+  std::vector<Worst> worstTexels, worstDirections;
+};
+
+/// Both BTFs must share texels and directions (btf::Error otherwise).
+ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, int worst = 10,
+                        const CancelToken* cancel = nullptr);
+/// texel_rmse.{exr,png} and direction_rmse.{exr,png} in dir (PNG scaled to its maximum).
+void writeErrorMaps(const ErrorReport& r, const std::string& dir);
+std::string errorReportJson(const ErrorReport& r);
+
+}  // namespace btf
