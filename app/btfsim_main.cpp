@@ -23,6 +23,21 @@ void addEffectOptions(CLI::App* c, btf::cli::EffectArgs& e) {
   c->add_option("--gather", e.gather, "N1: network points per direct hit");
   c->add_option("--paths", e.paths, "--method pt: paths per texel sample");
 }
+void addCodecOptions(CLI::App* c, btf::cli::CodecArgs& a, bool withName) {
+  if (withName) c->add_option("--codec", a.codec, "nmf (per-texel NMF + PCA), svd, perview, lpca");
+  c->add_option("--colour-model", a.colourModel, "rgb or ycc (luminance + two chroma channels)");
+  c->add_option("--components", a.components, "PCA components (0 = from the target)");
+  c->add_option("--target-rmse", a.targetRmse, "relative RMSE target, e.g. 0.05 (default)");
+  c->add_option("--target-ratio", a.targetRatio, "compression ratio target, e.g. 300");
+  c->add_option("--beta", a.beta, "nmf: β of the per-texel rank rule (eq. 3.21)");
+  c->add_option("--beta-mode", a.betaMode, "nmf: energy (Σσ²) or singular (Σσ, the thesis)");
+  c->add_option("--solver", a.solver, "nmf: hals or mu (Lee-Seung multiplicative updates)");
+  c->add_option("--max-rank", a.maxRank, "nmf: largest per-texel rank");
+  c->add_option("--nmf-iterations", a.iterations, "nmf: iterations per texel at most");
+  c->add_option("--train-texels", a.trainTexels, "svd/perview/lpca: training texels");
+  c->add_option("--clusters", a.clusters, "lpca: k-means clusters");
+  c->add_flag("--f32", a.f32, "store float32 arrays instead of float16");
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -46,6 +61,10 @@ int main(int argc, char** argv) {
   s->add_option("--chunk-texels", sim.chunkTexels,
                 "at most this many texels per chunk (resume granularity; 0 = from the budget)");
   addEffectOptions(s, sim.effects);
+  s->add_option("--compress", sim.compress,
+                "compress while simulating with this codec (nmf, svd, perview, lpca); the output "
+                "is a .cbtf and no raw BTF is written");
+  addCodecOptions(s, sim.codec, false);
   s->add_flag("--resume", sim.resume, "continue an interrupted run from OUTPUT.partial");
   s->add_flag("--json", sim.json, "print a JSON summary on stdout");
   s->add_flag("-q,--quiet", sim.quiet, "no progress bar");
@@ -122,6 +141,38 @@ int main(int argc, char** argv) {
   sy->add_option("--threads", st.threads, "worker threads");
   sy->add_flag("-q,--quiet", st.quiet, "no progress bar");
 
+  CompressArgs ca;
+  auto* cp = app.add_subcommand("compress", "compress a raw BTF store into a .cbtf");
+  cp->add_option("input", ca.input, "raw BTF store")->required();
+  cp->add_option("-o,--output", ca.output, "compressed file (.cbtf, written atomically)")
+      ->required();
+  addCodecOptions(cp, ca.codec, true);
+  cp->add_option("--threads", ca.threads, "worker threads");
+  cp->add_flag("--compare", ca.compare, "also measure the error against the input");
+  cp->add_flag("--json", ca.json, "JSON summary on stdout");
+  cp->add_flag("-q,--quiet", ca.quiet, "no progress bar");
+
+  CompareArgs cm;
+  auto* cmp = app.add_subcommand("compare", "error between two BTFs (raw or compressed)");
+  cmp->add_option("a", cm.a, "reference BTF (.btf or .cbtf)")->required();
+  cmp->add_option("b", cm.b, "BTF to measure (.btf or .cbtf)")->required();
+  cmp->add_option("--maps", cm.maps, "folder for per-texel and per-direction error maps");
+  cmp->add_option("--worst", cm.worst, "how many worst texels and directions to list");
+  cmp->add_option("--threads", cm.threads, "worker threads");
+  cmp->add_flag("--json", cm.json, "JSON output");
+  cmp->add_flag("-q,--quiet", cm.quiet, "no progress bar");
+
+  ExportArgs ex;
+  auto* exc =
+      app.add_subcommand("export", "export a BTF to the Bonn UBO2003/UBO2014 or MERL formats");
+  exc->add_option("input", ex.input, "BTF (.btf or .cbtf)")->required();
+  exc->add_option("--format", ex.format, "ubo2003, ubo2014 or merl")->required();
+  exc->add_option("-o,--output", ex.output, "folder (ubo2003) or file")->required();
+  exc->add_option("--components", ex.components, "ubo2014: components per channel");
+  exc->add_option("--phi-samples", ex.phiSamples, "merl: half-vector azimuths averaged per bin");
+  exc->add_option("--threads", ex.threads, "worker threads");
+  exc->add_flag("-q,--quiet", ex.quiet, "no progress bar");
+
   std::string schemaOut;
   auto* sc = app.add_subcommand("schema", "print the scene file's JSON Schema");
   sc->add_option("-o,--output", schemaOut, "write to this file instead of stdout");
@@ -144,6 +195,9 @@ int main(int argc, char** argv) {
     if (*bn) return bench(be);
     if (*pl) return plan(pa);
     if (*sy) return study(st);
+    if (*cp) return compress(ca);
+    if (*cmp) return compare(cm);
+    if (*exc) return exportBtf(ex);
     if (*sc) return schema(schemaOut);
     if (*sd) return sceneDoc(docOut);
   } catch (const btf::Error& e) {

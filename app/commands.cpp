@@ -1,5 +1,7 @@
 #include "commands.h"
 
+#include <btf/compress/compress.h>
+#include <btf/compress/export.h>
 #include <btf/core/error.h>
 #include <btf/core/parallel.h>
 #include <btf/core/sysinfo.h>
@@ -12,6 +14,7 @@
 #include <btf/store/btf_store.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -104,6 +107,95 @@ void printEstimate(const SimEstimate& e, const SimOptions& o) {
       e.chunkTexels);
 }
 
+CodecSettings codecSettings(const CodecArgs& a) {
+  CodecSettings s;
+  s.codec = a.codec;
+  s.colour = a.colourModel;
+  s.components = a.components;
+  s.targetRmse = a.targetRmse;
+  s.targetRatio = a.targetRatio;
+  s.beta = a.beta;
+  s.betaMode = la::betaModeFromName(a.betaMode);
+  s.solver = la::nmfSolverFromName(a.solver);
+  s.maxRank = a.maxRank;
+  s.nmfIterations = a.iterations;
+  s.trainTexels = a.trainTexels;
+  s.clusters = a.clusters;
+  s.half = !a.f32;
+  validate(s);
+  return s;
+}
+
+void printCompressed(const CompressedBtf& c, double seconds, uint64_t rss) {
+  const double raw = double(c.info.texels()) * c.info.nDirs() * c.info.nDirs() * 12.0;
+  std::printf("  codec %s (%s): %s -> %s, ratio 1:%.0f, %s, peak memory %s\n", c.codec.c_str(),
+              c.colour.c_str(), formatBytes(raw).c_str(),
+              formatBytes(double(c.fileBytes())).c_str(), c.ratio(), formatSeconds(seconds).c_str(),
+              formatBytes(double(rss)).c_str());
+  std::printf("  settings %s\n  stats %s\n", c.paramsJson.c_str(), c.statsJson.c_str());
+}
+
+int simulateCompressed(const SimulateArgs& a, SimulationJob& job, const SimEstimate& est,
+                       const SimOptions& o) {
+  CodecArgs ca = a.codec;
+  ca.codec = a.compress;
+  const CodecSettings cs = codecSettings(ca);
+  const BtfInfo info = job.storeInfo(est.chunkTexels);
+  auto enc = makeEncoder(cs, info);
+  std::fprintf(stderr,
+               "streaming into codec %s: no raw BTF is written (raw size would be %s); encoder "
+               "memory about %s\n",
+               cs.codec.c_str(), formatBytes(double(btfFileBytes(info))).c_str(),
+               formatBytes(double(enc->memoryBytes())).c_str());
+  const auto train = enc->trainingTexels();
+  job.setTrainingTexels(train, [&](const float* v) { enc->train(v); });
+  double encodeSeconds = 0;
+  job.setChunkSink([&](int, int64_t t0, int64_t t1, const float* values) {
+    const auto s0 = std::chrono::steady_clock::now();
+    enc->add(t0, t1, values);
+    encodeSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - s0).count();
+  });
+  const auto start = std::chrono::steady_clock::now();
+  const SimReport r = job.run("", est);
+  if (r.cancelled) throw Error("simulation cancelled");
+  const auto f0 = std::chrono::steady_clock::now();
+  const CompressedBtf c = enc->finish();
+  const double finishSeconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - f0).count();
+  writeCompressed(a.output, c);
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const uint64_t rss = peakRssBytes();
+  if (a.json) {
+    json j;
+    j["output"] = a.output;
+    j["scene"] = job.scene().name;
+    j["texels"] = {o.nu, o.nv};
+    j["directions"] = job.directions().name();
+    j["codec"] = json::parse(c.paramsJson);
+    j["stats"] = json::parse(c.statsJson);
+    j["wall_seconds"] = wall;
+    j["simulate_seconds"] = r.wallSeconds - encodeSeconds;
+    j["encode_seconds"] = encodeSeconds;
+    j["finish_seconds"] = finishSeconds;
+    j["raw_bytes"] = double(info.texels()) * info.nDirs() * info.nDirs() * 12.0;
+    j["compressed_bytes"] = c.fileBytes();
+    j["ratio"] = c.ratio();
+    j["peak_memory_bytes"] = rss;
+    std::cout << j.dump(2) << std::endl;
+  } else {
+    std::printf("wrote %s\n", a.output.c_str());
+    std::printf(
+        "  %d x %d texels, %d directions (%s); wall %s: simulation %s, encoding %s, "
+        "finish (PCA) %s\n",
+        o.nu, o.nv, job.directions().size(), job.directions().name().c_str(),
+        formatSeconds(wall).c_str(), formatSeconds(r.wallSeconds - encodeSeconds).c_str(),
+        formatSeconds(encodeSeconds).c_str(), formatSeconds(finishSeconds).c_str());
+    printCompressed(c, wall, rss);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int simulate(const SimulateArgs& a) {
@@ -120,13 +212,14 @@ int simulate(const SimulateArgs& a) {
   o.progress = !a.quiet;
   ThreadLimit limit(a.threads);
   SimulationJob job(scene, o);
-  const SimEstimate est = job.estimate(a.output);
+  const SimEstimate est = job.estimate(a.compress.empty() ? a.output : std::string());
   if (!a.quiet) {
     std::fprintf(stderr, "effect plan (%s):\n", o.method.c_str());
     printPlan(job.plan(), stderr);
   }
   printEstimate(est, o);
   if (!est.refusal.empty()) throw Error("refusing to start: " + est.refusal);
+  if (!a.compress.empty()) return simulateCompressed(a, job, est, o);
   const SimReport r = job.run(a.output, est);
   const double evalRate = r.evalSeconds > 0 ? double(r.abrdfValues) / r.evalSeconds : 0;
   const double rayRate = r.hitMapSeconds > 0 ? double(r.hitMapRays) / r.hitMapSeconds : 0;
@@ -616,6 +709,120 @@ int study(const StudyArgs& a) {
                 100 * r.probeRelRmse, 100 * r.setRelRmse, 100 * r.imageRelRmse,
                 r.pareto ? "*" : "");
   std::printf("wrote %s/study.csv, study.md, study.svg\n", a.output.c_str());
+  return 0;
+}
+
+}  // namespace btf::cli
+
+namespace btf::cli {
+
+int compress(const CompressArgs& a) {
+  const CodecSettings cs = codecSettings(a.codec);
+  ThreadLimit limit(a.threads);
+  CompressReport rep;
+  const CompressedBtf c = compressStore(a.input, cs, !a.quiet, nullptr, &rep);
+  writeCompressed(a.output, c);
+  ErrorReport err;
+  if (a.compare) {
+    const auto ref = openBtf(a.input);
+    const auto dec = makeDecoder(c);
+    err = compareBtfs(*ref, *dec, !a.quiet);
+  }
+  if (a.json) {
+    json j;
+    j["input"] = a.input;
+    j["output"] = a.output;
+    j["codec"] = json::parse(c.paramsJson);
+    j["stats"] = json::parse(c.statsJson);
+    j["seconds"] = rep.seconds;
+    j["train_seconds"] = rep.trainSeconds;
+    j["encode_seconds"] = rep.encodeSeconds;
+    j["finish_seconds"] = rep.finishSeconds;
+    j["raw_bytes"] = double(c.info.texels()) * c.info.nDirs() * c.info.nDirs() * 12.0;
+    j["compressed_bytes"] = rep.fileBytes;
+    j["ratio"] = rep.ratio;
+    j["peak_memory_bytes"] = rep.peakRssBytes;
+    if (a.compare) j["error"] = json::parse(errorReportJson(err));
+    std::cout << j.dump(2) << std::endl;
+  } else {
+    std::printf("wrote %s\n", a.output.c_str());
+    printCompressed(c, rep.seconds, rep.peakRssBytes);
+    if (a.compare)
+      std::printf("  error: RMSE %.5g, relative RMSE %.3f %%, PSNR %.2f dB (peak %.4g)\n", err.rmse,
+                  100 * err.relRmse, err.psnr, err.peak);
+  }
+  return 0;
+}
+
+int compare(const CompareArgs& a) {
+  ThreadLimit limit(a.threads);
+  const auto A = openBtf(a.a);
+  const auto B = openBtf(a.b);
+  const ErrorReport r = compareBtfs(*A, *B, !a.quiet, a.worst);
+  if (!a.maps.empty()) writeErrorMaps(r, a.maps);
+  auto ratioOf = [](const std::string& p) {
+    return isCompressedFile(p) ? readCompressed(p).ratio() : 1.0;
+  };
+  const double ratioA = ratioOf(a.a), ratioB = ratioOf(a.b);
+  if (a.json) {
+    json j = json::parse(errorReportJson(r));
+    j["a"] = {{"path", a.a}, {"kind", A->kind()}, {"ratio", ratioA}};
+    j["b"] = {{"path", a.b}, {"kind", B->kind()}, {"ratio", ratioB}};
+    if (!a.maps.empty()) j["maps"] = a.maps;
+    std::cout << j.dump(2) << std::endl;
+    return 0;
+  }
+  std::printf("A %s (%s, ratio 1:%.0f)\nB %s (%s, ratio 1:%.0f)\n", a.a.c_str(), A->kind().c_str(),
+              ratioA, a.b.c_str(), B->kind().c_str(), ratioB);
+  std::printf(
+      "RMSE %.6g (1/sr), relative RMSE %.3f %%, PSNR %.2f dB (peak %.5g), max |error| %.5g\n",
+      r.rmse, 100 * r.relRmse, r.psnr, r.peak, r.maxAbs);
+  std::printf("worst texels (u, v: RMSE):");
+  for (const auto& w : r.worstTexels)
+    std::printf(" (%lld, %lld: %.4g)", (long long)(w.index % r.nu), (long long)(w.index / r.nu),
+                w.rmse);
+  std::printf("\nworst directions (view θ,φ / light θ,φ: RMSE):");
+  const auto& dirs = A->info().dirsDeg;
+  for (const auto& w : r.worstDirections) {
+    const auto& v = dirs[size_t(w.index / r.nDirs)];
+    const auto& l = dirs[size_t(w.index % r.nDirs)];
+    std::printf(" (%.1f,%.1f / %.1f,%.1f: %.4g)", v[0], v[1], l[0], l[1], w.rmse);
+  }
+  std::printf("\n");
+  if (!a.maps.empty())
+    std::printf("maps: %s/texel_rmse.{exr,png}, %s/direction_rmse.{exr,png}\n", a.maps.c_str(),
+                a.maps.c_str());
+  return 0;
+}
+
+int exportBtf(const ExportArgs& a) {
+  ThreadLimit limit(a.threads);
+  const auto d = openBtf(a.input);
+  if (a.format == "ubo2003") {
+    const int64_t n = exportUbo2003(*d, a.output, !a.quiet);
+    std::printf("wrote %lld images and btf_export.json under %s\n", (long long)n, a.output.c_str());
+  } else if (a.format == "ubo2014") {
+    if (a.components < 1) throw Error("--components: must be ≥ 1");
+    const Ubo2014Report r = exportUbo2014(*d, a.output, a.components, !a.quiet);
+    std::printf(
+        "wrote %s (%s): DFMF, colour model 0, fp16, components R %d G %d B %d, "
+        "factorisation relative RMSE %.3f %% (training texels)\n",
+        a.output.c_str(), formatBytes(double(r.bytes)).c_str(), r.components[0], r.components[1],
+        r.components[2], 100 * r.relRmse);
+  } else if (a.format == "merl") {
+    const MerlReport r = exportMerl(*d, a.output, a.phiSamples, !a.quiet);
+    std::printf("wrote %s: 90x90x180 bins, %lld missing (below the horizon), φh spread %.1f %%\n",
+                a.output.c_str(), (long long)r.missingBins, 100 * r.anisotropy);
+    if (r.anisotropy > 0.1)
+      std::fprintf(
+          stderr,
+          "btfsim: warning: the texel-averaged aBRDF varies by %.0f %% over the half-vector "
+          "azimuth; MERL is isotropic, so the export averages it away\n",
+          100 * r.anisotropy);
+  } else {
+    throw Error("--format: unknown export format '" + a.format +
+                "' (expected ubo2003, ubo2014 or merl)");
+  }
   return 0;
 }
 

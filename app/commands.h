@@ -16,9 +16,19 @@ struct EffectArgs {
   int networkVoxels = 0, links = 16, gather = 4, paths = 16;
 };
 
+/// Codec options shared by simulate --compress, compress and study.
+struct CodecArgs {
+  std::string codec = "nmf", colourModel = "ycc", betaMode = "energy", solver = "hals";
+  int components = 0, maxRank = 8, iterations = 60, trainTexels = 256, clusters = 8;
+  double beta = 0.995, targetRmse = 0, targetRatio = 0;
+  bool f32 = false;
+};
+
 struct SimulateArgs {
   std::string scene, output;
   EffectArgs effects;
+  std::string compress;  // codec name: compress while simulating, output is a .cbtf
+  CodecArgs codec;
   std::string dirs, texels, shadows, memoryBudget = "4G";
   int spp = 0, threads = 0, chunkTexels = 0;
   long long seed = -1;
@@ -26,6 +36,28 @@ struct SimulateArgs {
   bool resume = false, json = false, quiet = false;
 };
 int simulate(const SimulateArgs& a);
+
+struct CompressArgs {
+  std::string input, output;
+  CodecArgs codec;
+  int threads = 0;
+  bool compare = false, json = false, quiet = false;
+};
+int compress(const CompressArgs& a);
+
+struct CompareArgs {
+  std::string a, b, maps;
+  int worst = 10, threads = 0;
+  bool json = false, quiet = false;
+};
+int compare(const CompareArgs& a);
+
+struct ExportArgs {
+  std::string input, format, output;
+  int components = 16, phiSamples = 16, threads = 0;
+  bool quiet = false;
+};
+int exportBtf(const ExportArgs& a);
 
 struct BrdfArgs {
   std::string scene;

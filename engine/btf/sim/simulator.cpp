@@ -448,6 +448,30 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     }
   };
   std::atomic<uint64_t> evals{0};
+  if (!m_trainTexels.empty() && m_trainSink) {
+    const int64_t n = int64_t(m_trainTexels.size());
+    const size_t stride = size_t(nD) * size_t(nD) * 3;
+    std::vector<float> values(size_t(n) * stride, 0.f);
+    ProgressReporter tp("training texels", n, m_opt.progress);
+    parallelForChunks(
+        n * nD, pt ? 1 : 8,
+        [&](int64_t b, int64_t e) {
+          for (int64_t k = b; k < e; ++k) {
+            const int64_t t = m_trainTexels[size_t(k / nD)];
+            const int view = int(k % nD);
+            kernel.eval(int(t % m_opt.nu), int(t / m_opt.nu), view,
+                        &values[size_t(k / nD) * stride + size_t(view) * nD * 3]);
+            if (view == nD - 1) tp.add(1);
+          }
+        },
+        cancel);
+    if (cancel && cancel->cancelled()) {
+      r.cancelled = true;
+      return r;
+    }
+    tp.finish();
+    m_trainSink(values.data());
+  }
   ProgressReporter pr("aBRDF", info.texels(), m_opt.progress);
   const auto evalStart = Clock::now();
   for (int c = 0; c < info.chunks(); ++c) {

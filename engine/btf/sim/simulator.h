@@ -96,6 +96,13 @@ class SimulationJob {
   /// Chunk consumer: receives every finished chunk (texels [t0, t1), texel-major values).
   using ChunkSink = std::function<void(int chunk, int64_t t0, int64_t t1, const float* values)>;
   void setChunkSink(ChunkSink sink) { m_sink = std::move(sink); }
+  /// Texels computed once before the chunks (a compressor's training subset): their values,
+  /// texel-major in the given order, go to `sink` after the set-up and before chunk 0.
+  using TrainingSink = std::function<void(const float* values)>;
+  void setTrainingTexels(std::vector<int64_t> texels, TrainingSink sink) {
+    m_trainTexels = std::move(texels);
+    m_trainSink = std::move(sink);
+  }
   /// The store header this job writes (chunk size from the memory budget).
   BtfInfo storeInfo(int chunkTexels) const;
 
@@ -116,6 +123,8 @@ class SimulationJob {
   mutable std::unique_ptr<EffectPlan> m_plan;
   mutable std::unique_ptr<PointNetwork> m_network;
   ChunkSink m_sink;
+  std::vector<int64_t> m_trainTexels;
+  TrainingSink m_trainSink;
 };
 
 }  // namespace btf

@@ -1,0 +1,40 @@
+// Exports to formats users' tools read (docs/exports.md; facts from ../shared/FORMATS.md):
+// the Bonn UBO2003/UTIA image set, the UBO2014 DFMF `.btf` container and MERL's isotropic
+// `.binary`. Every export decodes through the Decoder API, so raw and compressed BTFs export
+// alike.
+#pragma once
+#include <btf/compress/codec.h>
+
+#include <string>
+
+namespace btf {
+
+/// One linear float EXR per (light, view) pair, in one folder per view:
+/// DIR/tvTTT_pvPPP/tlTTT_plPPP_tvTTT_pvPPP.exr (integer degrees), plus DIR/btf_export.json saying
+/// what the values are. Returns the number of images.
+int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress);
+
+struct Ubo2014Report {
+  int components[3] = {0, 0, 0};
+  double relRmse = 0;  // of the rank-C factorisation against the source (training texels)
+  uint64_t bytes = 0;
+};
+/// DFMF container, colour model 0 (RGB), fp16, C components per channel (full-matrix SVD
+/// computed from the decoded BTF).
+Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int components,
+                            bool progress);
+
+struct MerlReport {
+  int64_t bins = 0, missingBins = 0;
+  double anisotropy = 0;  // mean relative spread of the aBRDF over φ_h (0 for isotropic data)
+};
+/// Texel-averaged aBRDF resampled to MERL's 90 × 90 × 180 bins: each bin's value is the mean
+/// over phiSamples half-vector azimuths φ_h = (k + ½)·2π/phiSamples at the bin centre; bins
+/// with every sample below the horizon are missing (−1).
+MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples, bool progress);
+
+/// Bin centre of MERL indices → (θh, θd, φd) in radians, and (θh, θd, φd, φh) → (ω_i, ω_o).
+void merlBinCentre(int thetaHalf, int thetaDiff, int phiDiff, double* th, double* td, double* pd);
+void halfDiffToDirections(double th, double ph, double td, double pd, double wi[3], double wo[3]);
+
+}  // namespace btf
