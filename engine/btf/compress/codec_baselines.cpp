@@ -67,20 +67,30 @@ class TrainedEncoder : public Encoder {
     if (!m_trained) throw Error(m_s.codec + " encoder: add() before train()");
     const auto start = Clock::now();
     const size_t stride = size_t(m_lv) * 3;
+    // Blocks of texels as per-channel matrices (lv × block): projections become GEMMs, so each
+    // basis is read once per block rather than once per texel.
+    const int64_t block = 32;
+    const int64_t nb = (t1 - t0 + block - 1) / block;
     parallelForChunks(
-        t1 - t0, 1,
-        [&](int64_t b, int64_t e) {
-          la::VecF ch[3];
-          for (auto& x : ch) x.resize(m_lv);
-          for (int64_t i = b; i < e; ++i) {
-            const float* x = values + size_t(i) * stride;
-            for (int64_t k = 0; k < m_lv; ++k) {
-              float col[3];
-              toColour(m_s.colour, x + size_t(k) * 3, col);
-              ch[0][k] = col[0], ch[1][k] = col[1], ch[2][k] = col[2];
+        nb, 1,
+        [&](int64_t b0, int64_t b1) {
+          la::MatF X[3];
+          for (int64_t bi = b0; bi < b1; ++bi) {
+            const int64_t s0 = bi * block, s1 = std::min(t1 - t0, s0 + block);
+            // Always `block` columns (zero padded): Eigen's GEMM blocking depends on the matrix
+            // sizes, so a fixed size keeps every texel's coefficients bitwise independent of
+            // how the stream was chunked.
+            for (auto& x : X) x.setZero(m_lv, block);
+            for (int64_t i = s0; i < s1; ++i) {
+              const float* x = values + size_t(i) * stride;
+              for (int64_t k = 0; k < m_lv; ++k) {
+                float col[3];
+                toColour(m_s.colour, x + size_t(k) * 3, col);
+                X[0](k, i - s0) = col[0], X[1](k, i - s0) = col[1], X[2](k, i - s0) = col[2];
+              }
             }
-            encodeTexel(t0 + i, ch);
-            m_done[size_t(t0 + i)] = 1;
+            encodeBlock(t0 + s0, s1 - s0, X);
+            for (int64_t i = s0; i < s1; ++i) m_done[size_t(t0 + i)] = 1;
           }
         },
         m_cancel);
@@ -109,7 +119,8 @@ class TrainedEncoder : public Encoder {
 
  protected:
   virtual void fit() = 0;
-  virtual void encodeTexel(int64_t t, const la::VecF ch[3]) = 0;
+  /// Texels [t0, t0 + count), one column each of X[c] (extra columns are zero padding).
+  virtual void encodeBlock(int64_t t0, int64_t count, const la::MatF X[3]) = 0;
   virtual void extraParams(nlohmann::ordered_json&) const {}
   ArrayType type() const { return m_s.half ? ArrayType::F16 : ArrayType::F32; }
   double rawBytes() const { return double(m_info.texels()) * double(m_lv) * 12.0; }
@@ -174,10 +185,6 @@ la::MatF storeBasis(CArray& a, int64_t row0, const la::MatF& B) {
   return Q;
 }
 
-// Least-squares coefficients on a (quantized, nearly orthonormal) basis.
-la::VecF project(const la::MatF& B, const la::MatF& gramInv, const la::VecF& x) {
-  return gramInv * (B.transpose() * x);
-}
 la::MatF gramInverse(const la::MatF& B) {
   if (B.cols() == 0) return la::MatF(0, 0);
   return (B.transpose() * B).ldlt().solve(la::MatF::Identity(B.cols(), B.cols()));
@@ -212,11 +219,12 @@ class SvdEncoder final : public TrainedEncoder {
     }
     m_trainRel = m_trainEnergy > 0 ? std::sqrt(std::max(0.0, 1 - kept / m_trainEnergy)) : 0;
   }
-  void encodeTexel(int64_t t, const la::VecF ch[3]) override {
+  void encodeBlock(int64_t t0, int64_t count, const la::MatF X[3]) override {
     for (int c = 0; c < 3; ++c) {
       if (m_C[c] == 0) continue;
-      const la::VecF k = project(m_B[c], m_G[c], ch[c]);
-      for (int q = 0; q < m_C[c]; ++q) m_coef[c]->data[size_t(t * m_C[c] + q)] = k[q];
+      const la::MatF K = m_G[c] * (m_B[c].transpose() * X[c]);  // C × block
+      for (int64_t i = 0; i < count; ++i)
+        for (int q = 0; q < m_C[c]; ++q) m_coef[c]->data[size_t((t0 + i) * m_C[c] + q)] = K(q, i);
     }
   }
 
@@ -286,17 +294,19 @@ class PerViewEncoder final : public TrainedEncoder {
     }
     m_trainRel = m_trainEnergy > 0 ? std::sqrt(std::max(0.0, 1 - kept / m_trainEnergy)) : 0;
   }
-  void encodeTexel(int64_t t, const la::VecF ch[3]) override {
+  void encodeBlock(int64_t t0, int64_t count, const la::MatF X[3]) override {
     for (int c = 0; c < 3; ++c) {
       const int C = m_C[c];
       if (C == 0) continue;
       for (int v = 0; v < m_n; ++v) {
         const int have = m_have[c][size_t(v)];
         if (have == 0) continue;
-        const la::VecF x = ch[c].segment(int64_t(v) * m_n, m_n);
-        const la::VecF k = m_G[c][size_t(v)] * (m_B[c][size_t(v)].leftCols(have).transpose() * x);
-        float* dst = m_coef[c]->data.data() + size_t(t) * m_coef[c]->cols + size_t(v) * C;
-        for (int q = 0; q < have; ++q) dst[q] = k[q];
+        const la::MatF K = m_G[c][size_t(v)] * (m_B[c][size_t(v)].leftCols(have).transpose() *
+                                                X[c].middleRows(int64_t(v) * m_n, m_n));
+        for (int64_t i = 0; i < count; ++i) {
+          float* dst = m_coef[c]->data.data() + size_t(t0 + i) * m_coef[c]->cols + size_t(v) * C;
+          for (int q = 0; q < have; ++q) dst[q] = K(q, i);
+        }
       }
     }
   }
@@ -445,16 +455,27 @@ class LpcaEncoder final : public TrainedEncoder {
     m_K = K;
     m_trainRel = m_trainEnergy > 0 ? std::sqrt(std::max(0.0, 1 - kept / m_trainEnergy)) : 0;
   }
-  void encodeTexel(int64_t t, const la::VecF ch[3]) override {
-    la::MatF X[3];
-    for (int c = 0; c < 3; ++c) X[c] = ch[c];
-    const int k = nearest(m_cent, features(X, 0));
-    m_cluster->data[size_t(t)] = float(k);
-    for (int c = 0; c < 3; ++c) {
-      const int have = m_have[c][size_t(k)];
-      if (have == 0) continue;
-      const la::VecF q = m_G[c][size_t(k)] * (m_B[c][size_t(k)].leftCols(have).transpose() * ch[c]);
-      for (int i = 0; i < have; ++i) m_coef[c]->data[size_t(t * m_C[c] + i)] = q[i];
+  void encodeBlock(int64_t t0, int64_t count, const la::MatF X[3]) override {
+    const int64_t n = count;
+    std::vector<std::vector<int64_t>> groups{size_t(m_K)};
+    for (int64_t i = 0; i < n; ++i) {
+      const int k = nearest(m_cent, features(X, int(i)));
+      m_cluster->data[size_t(t0 + i)] = float(k);
+      groups[size_t(k)].push_back(i);
+    }
+    for (int k = 0; k < m_K; ++k) {
+      const auto& g = groups[size_t(k)];
+      if (g.empty()) continue;
+      for (int c = 0; c < 3; ++c) {
+        const int have = m_have[c][size_t(k)];
+        if (have == 0) continue;
+        la::MatF Xg = la::MatF::Zero(m_lv, X[c].cols());  // fixed size: see add()
+        for (size_t j = 0; j < g.size(); ++j) Xg.col(int64_t(j)) = X[c].col(g[j]);
+        const la::MatF Q = m_G[c][size_t(k)] * (m_B[c][size_t(k)].leftCols(have).transpose() * Xg);
+        for (size_t j = 0; j < g.size(); ++j)
+          for (int i = 0; i < have; ++i)
+            m_coef[c]->data[size_t((t0 + g[j]) * m_C[c] + i)] = Q(i, int64_t(j));
+      }
     }
   }
   void extraParams(nlohmann::ordered_json& j) const override {

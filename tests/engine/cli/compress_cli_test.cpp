@@ -1,0 +1,108 @@
+// btfsim compress / compare / export / simulate --compress end to end on a simulated scene.
+#include <btf/compress/compress.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "test_util.h"
+
+namespace btf {
+namespace {
+
+std::string scenePath(const std::string& n) {
+  return test::sourceDir() + "/resources/scenes/" + n + ".json";
+}
+
+TEST(BtfsimCompress, StreamedSimulationEqualsCompressingTheStoredBtf) {
+  const auto dir = test::tempDir("cli_compress");
+  const std::string common = scenePath("bumps") + " --texels 8 --dirs 4x8 --spp 1 -q";
+  std::string out;
+  ASSERT_EQ(test::runBtfsim("simulate " + common + " -o " + (dir / "a.btf").string(), &out), 0)
+      << out;
+  for (const std::string codec : {"nmf", "svd"}) {
+    const std::string file = (dir / (codec + "_file.cbtf")).string();
+    const std::string streamed = (dir / (codec + "_stream.cbtf")).string();
+    ASSERT_EQ(test::runBtfsim("compress " + (dir / "a.btf").string() + " -o " + file + " --codec " +
+                                  codec + " --train-texels 20 --json -q --compare",
+                              &out),
+              0)
+        << out;
+    const auto j = nlohmann::json::parse(out.substr(out.find('{')));
+    EXPECT_GT(j.at("ratio").get<double>(), 1.0);
+    const double rel = j.at("error").at("relative_rmse").get<double>();
+    EXPECT_GT(rel, 0.0);
+    EXPECT_LT(rel, 1.0);
+    ASSERT_EQ(test::runBtfsim("simulate " + common + " -o " + streamed + " --compress " + codec +
+                                  " --train-texels 20",
+                              &out),
+              0)
+        << out;
+    EXPECT_FALSE(std::filesystem::exists(dir / (codec + "_stream.cbtf.partial")));
+    const CompressedBtf a = readCompressed(file), b = readCompressed(streamed);
+    ASSERT_EQ(a.arrays.size(), b.arrays.size());
+    for (size_t i = 0; i < a.arrays.size(); ++i)
+      EXPECT_TRUE(a.arrays[i].data == b.arrays[i].data) << codec << " " << a.arrays[i].name;
+    // compare: identical files have zero error; raw vs compressed matches compress --compare.
+    ASSERT_EQ(test::runBtfsim("compare " + file + " " + streamed + " --json -q", &out), 0) << out;
+    EXPECT_EQ(nlohmann::json::parse(out.substr(out.find('{'))).at("rmse").get<double>(), 0.0);
+    ASSERT_EQ(test::runBtfsim("compare " + (dir / "a.btf").string() + " " + file + " -q --maps " +
+                                  (dir / (codec + "_maps")).string(),
+                              &out),
+              0)
+        << out;
+    EXPECT_NE(out.find("relative RMSE"), std::string::npos);
+    ASSERT_EQ(
+        test::runBtfsim("compare " + (dir / "a.btf").string() + " " + file + " -q --json", &out),
+        0);
+    EXPECT_NEAR(nlohmann::json::parse(out.substr(out.find('{'))).at("relative_rmse").get<double>(),
+                rel, 1e-12);
+    EXPECT_TRUE(std::filesystem::exists(dir / (codec + "_maps") / "texel_rmse.png"));
+    EXPECT_TRUE(std::filesystem::exists(dir / (codec + "_maps") / "direction_rmse.exr"));
+  }
+  // Exports run from a compressed file too.
+  ASSERT_EQ(test::runBtfsim("export " + (dir / "nmf_file.cbtf").string() + " --format merl -q -o " +
+                                (dir / "a.binary").string(),
+                            &out),
+            0)
+      << out;
+  EXPECT_EQ(std::filesystem::file_size(dir / "a.binary"), 34992012u);
+}
+
+TEST(BtfsimCompress, BadInputsAreClearErrors) {
+  const auto dir = test::tempDir("cli_compress_err");
+  std::string out;
+  ASSERT_EQ(test::runBtfsim("simulate " + scenePath("bumps") + " --texels 4 --dirs 4x8 -q -o " +
+                                (dir / "a.btf").string(),
+                            &out),
+            0);
+  ASSERT_EQ(test::runBtfsim("simulate " + scenePath("bumps") + " --texels 5 --dirs 4x8 -q -o " +
+                                (dir / "b.btf").string(),
+                            &out),
+            0);
+  std::ofstream(dir / "junk.cbtf") << "BTFCOMP1 but nothing else";
+  const std::string a = (dir / "a.btf").string();
+  struct Case {
+    std::string args, expect;
+  } cases[] = {
+      {"compress " + a + " -o x.cbtf --codec jpeg", "unknown codec 'jpeg'"},
+      {"compress " + a + " -o x.cbtf --target-rmse 0.05 --target-ratio 300",
+       "give one of them, not both"},
+      {"compress " + a + " -o x.cbtf --beta 0", "--beta: must be in (0, 1]"},
+      {"compress " + a + " -o x.cbtf --beta-mode median", "unknown β mode 'median'"},
+      {"compress missing.btf -o x.cbtf", "missing.btf"},
+      {"compare " + a + " " + (dir / "b.btf").string(), "texel grids differ"},
+      {"compare " + a + " " + (dir / "junk.cbtf").string(), "junk.cbtf: truncated file"},
+      {"export " + a + " --format obj -o x", "unknown export format 'obj'"},
+      {"simulate " + scenePath("bumps") + " --texels 4 -q -o x.cbtf --compress zip",
+       "unknown codec 'zip'"},
+  };
+  for (const auto& c : cases) {
+    EXPECT_NE(test::runBtfsim(c.args, &out), 0) << c.args;
+    EXPECT_NE(out.find(c.expect), std::string::npos) << c.args << "\n" << out;
+  }
+}
+
+}  // namespace
+}  // namespace btf
