@@ -140,6 +140,13 @@ int main(int argc, char** argv) {
   sy->add_option("--reference-spp", st.referenceSpp, "reference paths per axis per probe pair");
   sy->add_option("--threads", st.threads, "worker threads");
   sy->add_flag("-q,--quiet", st.quiet, "no progress bar");
+  sy->add_option("--codecs", st.codecs,
+                 "compression knobs: codecs to compare on the base configuration's BTF");
+  sy->add_option("--betas", st.betas, "nmf β values (comma-separated)");
+  sy->add_option("--components", st.components, "component counts (0 = from the target)");
+  sy->add_option("--target-ratio", st.codec.targetRatio, "codec target ratio (with --codecs)");
+  sy->add_option("--target-rmse", st.codec.targetRmse, "codec target relative RMSE");
+  sy->add_option("--colour-model", st.codec.colourModel, "rgb or ycc");
 
   CompressArgs ca;
   auto* cp = app.add_subcommand("compress", "compress a raw BTF store into a .cbtf");

@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -665,6 +666,113 @@ std::vector<int> intList(const std::string& s, const std::string& what, int lo, 
 }
 }  // namespace
 
+namespace {
+
+// The compression knobs of the study: one simulated BTF (the base configuration), every codec
+// × β × components compressed and compared with it.
+void compressionStudy(const StudyArgs& a, const Scene& scene, const StudyOptions& o) {
+  std::vector<double> betas;
+  for (const auto& b : splitList(a.betas, "--betas")) {
+    char* end = nullptr;
+    const double v = std::strtod(b.c_str(), &end);
+    if (end == b.c_str() || *end || !(v > 0 && v <= 1))
+      throw Error("invalid --betas value '" + b + "': expected a number in (0, 1]");
+    betas.push_back(v);
+  }
+  const std::vector<int> comps = intList(a.components, "--components", 0, 4096);
+  std::vector<CodecSettings> settings;
+  for (const auto& c : splitList(a.codecs, "--codecs")) {
+    CodecArgs ca = a.codec;
+    ca.codec = c;
+    for (double beta : c == "nmf" ? betas : std::vector<double>{betas[0]})
+      for (int comp : comps) {
+        ca.beta = beta;
+        ca.components = comp;
+        settings.push_back(codecSettings(ca));
+      }
+  }
+  std::filesystem::create_directories(a.output);
+  const std::string raw = a.output + "/base.btf";
+  SimOptions so = sceneOptions(scene, std::to_string(o.nu) + "x" + std::to_string(o.nv),
+                               o.base.dirs, o.base.spp, shadowModeName(o.base.shadows));
+  so.method = o.base.method;
+  so.progress = !a.quiet;
+  {
+    SimulationJob job(scene, so);
+    const SimEstimate est = job.estimate(raw);
+    if (!est.refusal.empty()) throw Error("compression study: " + est.refusal);
+    std::fprintf(stderr, "compression study: simulating the base configuration into %s\n",
+                 raw.c_str());
+    job.run(raw, est);
+  }
+  const auto ref = openBtf(raw);
+  struct Row {
+    CodecSettings s;
+    double seconds, ratio, rmse, rel, psnr;
+    uint64_t bytes, rss;
+    std::string chosen;
+    bool pareto = false;
+  };
+  std::vector<Row> rows;
+  for (const auto& cs : settings) {
+    CompressReport rep;
+    CompressedBtf c = compressStore(raw, cs, !a.quiet, nullptr, &rep);
+    const json params = json::parse(c.paramsJson);
+    std::string chosen;
+    if (params.contains("components_per_channel")) chosen = params["components_per_channel"].dump();
+    if (params.contains("channels")) {
+      json ch = json::array();
+      for (const auto& x : params["channels"])
+        ch.push_back({x["slots"], x["components_view"], x["components_light"]});
+      chosen = ch.dump();
+    }
+    const auto dec = makeDecoder(std::move(c));
+    const ErrorReport e = compareBtfs(*ref, *dec, false);
+    rows.push_back({cs, rep.seconds, rep.ratio, e.rmse, e.relRmse, e.psnr, rep.fileBytes,
+                    rep.peakRssBytes, chosen});
+  }
+  // Pareto front on (size, error): no other row is both smaller and more accurate.
+  for (auto& r : rows) {
+    r.pareto = true;
+    for (const auto& q : rows)
+      if (&q != &r && q.bytes <= r.bytes && q.rel <= r.rel && (q.bytes < r.bytes || q.rel < r.rel))
+        r.pareto = false;
+  }
+  std::ofstream csv(a.output + "/compression.csv");
+  csv << "codec,colour,beta,components,chosen,ratio,bytes,rmse,relative_rmse,psnr_db,seconds,"
+         "peak_rss_bytes,pareto\n";
+  std::ofstream md(a.output + "/compression.md");
+  md << "# Compression study: " << scene.name << ", " << o.nu << "x" << o.nv << " texels, "
+     << o.base.dirs << ", spp " << o.base.spp << "\n\n"
+     << "Error against the uncompressed simulation (" << raw << ").\n\n"
+     << "| codec | β | components (chosen) | ratio | RMSE | rel. RMSE | PSNR | time | peak RSS | "
+        "Pareto |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  std::printf("%-8s %6s %-24s %8s %9s %9s %8s %8s\n", "codec", "beta", "components", "ratio",
+              "RMSE", "rel.RMSE", "PSNR", "time");
+  for (const auto& r : rows) {
+    const std::string comp = (r.s.components ? std::to_string(r.s.components) : "auto") +
+                             (r.chosen.empty() ? "" : " " + r.chosen);
+    csv << r.s.codec << "," << r.s.colour << "," << r.s.beta << "," << r.s.components << ",\""
+        << r.chosen << "\"," << r.ratio << "," << r.bytes << "," << r.rmse << "," << r.rel << ","
+        << r.psnr << "," << r.seconds << "," << r.rss << "," << (r.pareto ? 1 : 0) << "\n";
+    char line[512];
+    std::snprintf(line, sizeof line,
+                  "| %s | %s | %s | 1:%.0f | %.4g | %.2f %% | %.1f dB | %.1f s | %s | %s |\n",
+                  r.s.codec.c_str(),
+                  r.s.codec == "nmf" ? std::to_string(r.s.beta).substr(0, 6).c_str() : "–",
+                  comp.c_str(), r.ratio, r.rmse, 100 * r.rel, r.psnr, r.seconds,
+                  formatBytes(double(r.rss)).c_str(), r.pareto ? "*" : "");
+    md << line;
+    std::printf("%-8s %6.4f %-24s %7.0f:1 %9.4g %8.2f%% %7.1fdB %7.1fs %s\n", r.s.codec.c_str(),
+                r.s.beta, comp.substr(0, 24).c_str(), r.ratio, r.rmse, 100 * r.rel, r.psnr,
+                r.seconds, r.pareto ? "*" : "");
+  }
+  std::filesystem::remove(raw);
+  std::printf("wrote %s/compression.csv, compression.md\n", a.output.c_str());
+}
+
+}  // namespace
+
 int study(const StudyArgs& a) {
   const Scene scene = loadScene(a.scene);
   StudyOptions o;
@@ -709,6 +817,7 @@ int study(const StudyArgs& a) {
                 100 * r.probeRelRmse, 100 * r.setRelRmse, 100 * r.imageRelRmse,
                 r.pareto ? "*" : "");
   std::printf("wrote %s/study.csv, study.md, study.svg\n", a.output.c_str());
+  if (!a.codecs.empty()) compressionStudy(a, scene, o);
   return 0;
 }
 

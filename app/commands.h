@@ -111,6 +111,10 @@ struct StudyArgs {
   bool grid = false;
   int referenceSpp = 256, threads = 0;
   bool quiet = false;
+  // Compression knobs: with --codecs, the base configuration's BTF is simulated once and
+  // compressed with every codec × β (nmf) × components; compression.csv/md report the rows.
+  std::string codecs, betas = "0.995", components = "0";
+  CodecArgs codec;
 };
 int study(const StudyArgs& a);
 

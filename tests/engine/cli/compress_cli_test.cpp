@@ -4,7 +4,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "test_util.h"
 
@@ -102,6 +104,52 @@ TEST(BtfsimCompress, BadInputsAreClearErrors) {
     EXPECT_NE(test::runBtfsim(c.args, &out), 0) << c.args;
     EXPECT_NE(out.find(c.expect), std::string::npos) << c.args << "\n" << out;
   }
+}
+
+}  // namespace
+}  // namespace btf
+
+namespace btf {
+namespace {
+
+TEST(BtfsimCompress, StudySweepsCodecsAndComponents) {
+  const auto dir = test::tempDir("cli_compress_study");
+  std::string out;
+  ASSERT_EQ(test::runBtfsim("study " + scenePath("bumps") + " -o " + dir.string() +
+                                " -q --texels 6 --dirs 4x8 --spp 1 --shadows map "
+                                "--network-voxels 0 --gather 4 --links 16 --bounces 1 "
+                                "--reference-spp 8 --codecs nmf,svd --components 1,4",
+                            &out),
+            0)
+      << out;
+  const std::string csv = test::readFile(dir / "compression.csv");
+  std::istringstream in(csv);
+  std::string line;
+  std::getline(in, line);                          // header
+  std::map<std::string, std::vector<double>> rel;  // codec → relative RMSE by components
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::string cell;
+    bool quoted = false;
+    for (char ch : line) {
+      if (ch == '"')
+        quoted = !quoted;
+      else if (ch == ',' && !quoted)
+        f.push_back(cell), cell.clear();
+      else
+        cell += ch;
+    }
+    f.push_back(cell);
+    ASSERT_EQ(f.size(), 13u) << line;
+    rel[f[0]].push_back(std::stod(f[8]));
+  }
+  ASSERT_EQ(rel["nmf"].size(), 2u);
+  ASSERT_EQ(rel["svd"].size(), 2u);
+  // More components never fit worse (same training, nested bases).
+  EXPECT_LE(rel["svd"][1], rel["svd"][0] + 1e-9);
+  EXPECT_LE(rel["nmf"][1], rel["nmf"][0] + 1e-3);
+  EXPECT_FALSE(std::filesystem::exists(dir / "base.btf"));
+  EXPECT_NE(test::readFile(dir / "compression.md").find("| svd |"), std::string::npos);
 }
 
 }  // namespace
