@@ -138,14 +138,6 @@ std::unique_ptr<Decoder> makeDecoder(CompressedBtf c) {
   throw Error("compressed BTF: unknown codec '" + c.codec + "'");
 }
 
-int componentsForRatio(double rawBytes, double ratio, int maxC,
-                       const std::function<double(int)>& bytesOf) {
-  int best = 1;
-  for (int c = 1; c <= maxC; ++c)
-    if (bytesOf(c) * ratio <= rawBytes) best = c;
-  return best;
-}
-
 // ------------------------------------------------------------------ Decoder
 
 Decoder::Decoder(BtfInfo info) : m_info(std::move(info)) {

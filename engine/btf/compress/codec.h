@@ -113,8 +113,4 @@ std::unique_ptr<Decoder> makeSvdDecoder(CompressedBtf c);
 std::unique_ptr<Decoder> makePerViewDecoder(CompressedBtf c);
 std::unique_ptr<Decoder> makeLpcaDecoder(CompressedBtf c);
 
-/// Largest component count c ≥ 1 whose size model fits raw/ratio (sizes in bytes of c).
-int componentsForRatio(double rawBytes, double ratio, int maxC,
-                       const std::function<double(int)>& bytesOf);
-
 }  // namespace btf

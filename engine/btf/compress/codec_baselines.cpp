@@ -130,11 +130,27 @@ class TrainedEncoder : public Encoder {
   /// three channels), or residual energy (target relative RMSE; default 5 %) of the spectra.
   void chooseComponents(const la::Basis* spectra, int maxC,
                         const std::function<double(int)>& bytesOf) {
-    int C = m_s.components;
-    if (C == 0 && m_s.targetRatio > 0)
-      C = componentsForRatio(rawBytes(), m_s.targetRatio, maxC, bytesOf);
+    const int C = m_s.components;
     if (C > 0) {
       for (int c = 0; c < 3; ++c) m_C[c] = std::min<int>(C, int(spectra[c].B.cols()));
+      return;
+    }
+    if (m_s.targetRatio > 0) {
+      // Greedy: the largest eigenvalue across channels while the size model fits raw/ratio.
+      const double cost = (bytesOf(2) - bytesOf(1)) / 3, fixed = bytesOf(1) - 3 * cost;
+      double budget = rawBytes() / m_s.targetRatio - 65536.0 - fixed;
+      int idx[3] = {0, 0, 0};
+      for (;;) {
+        int best = -1;
+        double bv = 0;
+        for (int c = 0; c < 3; ++c)
+          if (idx[c] < std::min<int>(maxC, int(spectra[c].B.cols())) && spectra[c].eigen[idx[c]] > bv)
+            bv = spectra[c].eigen[idx[c]], best = c;
+        if (best < 0 || budget < cost) break;
+        ++idx[best];
+        budget -= cost;
+      }
+      for (int c = 0; c < 3; ++c) m_C[c] = idx[c];
       return;
     }
     // Shared residual budget over the three channels: keep the largest eigenvalues across

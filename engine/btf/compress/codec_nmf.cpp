@@ -101,51 +101,76 @@ class NmfEncoder final : public Encoder {
       }
     // Components: explicit, from the ratio's size model, or from the error target.
     const int maxC = std::min(m_n, 256);
-    auto bytesOf = [&](int C) {
-      double b = 0;
-      for (int c = 0; c < 3; ++c)
-        if (K[c] > 0) b += double(2 * m_n * C) + double(T) * K[c] * 2 * C;
-      return b * (m_s.half ? 2 : 4);
-    };
-    int fixedC = m_s.components;
-    if (fixedC == 0 && m_s.targetRatio > 0)
-      fixedC = componentsForRatio(raw, m_s.targetRatio, maxC, bytesOf);
     const double nmfRel2 = m_energy > 0 ? m_err2 / m_energy : 0;
     const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
     // Error left to the PCA stage, split between the view and light sides.
     const double pcaBudget2 = std::max(target * target - nmfRel2, 0.25 * target * target) / 2;
+    // PCA bases of every channel and side first, then the component counts.
+    la::Basis bases[3][2];
+    for (int c = 0; c < 3; ++c) {
+      if (K[c] == 0) continue;
+      for (int side = 0; side < 2; ++side) {
+        // Samples: s_j · unit factor (the reconstruction error a side's projection error causes
+        // scales with s_j).
+        la::MatF X(m_n, nf[c]);
+        int64_t col = 0;
+        for (int64_t t = 0; t < T; ++t) {
+          const TexelFactors& f = m_f[size_t(t) * 3 + size_t(c)];
+          for (int j = 0; j < f.rank(); ++j, ++col) {
+            const float* src = (side == 0 ? f.view.data() : f.light.data()) + size_t(j) * m_n;
+            for (int i = 0; i < m_n; ++i) X(i, col) = f.scale[size_t(j)] * src[i];
+          }
+        }
+        bases[c][side] = la::pcaBasis(X, maxC);
+      }
+    }
+    int Cs[3][2] = {{0, 0}, {0, 0}, {0, 0}};
+    auto avail = [&](int c, int side) { return int(bases[c][side].B.cols()); };
+    if (m_s.components > 0) {
+      for (int c = 0; c < 3; ++c)
+        for (int side = 0; side < 2; ++side) Cs[c][side] = std::min(m_s.components, avail(c, side));
+    } else if (m_s.targetRatio > 0) {
+      // Greedy by energy per byte: a component of (channel, side) costs its basis column and one
+      // coefficient per slot and texel; it removes its eigenvalue from the error. Each coded
+      // channel starts with one component per side.
+      const double scalar = m_s.half ? 2 : 4;
+      double budget = raw / m_s.targetRatio - 65536.0;  // header and alignment
+      auto cost = [&](int c) { return (double(m_n) + double(T) * K[c]) * scalar; };
+      for (int c = 0; c < 3; ++c)
+        for (int side = 0; side < 2; ++side)
+          if (avail(c, side) > 0) Cs[c][side] = 1, budget -= cost(c);
+      for (;;) {
+        int bc = -1, bs = 0;
+        double best = 0;
+        for (int c = 0; c < 3; ++c)
+          for (int side = 0; side < 2; ++side) {
+            const int i = Cs[c][side];
+            if (i >= avail(c, side) || cost(c) > budget) continue;
+            const double gain = bases[c][side].eigen[i] / cost(c);
+            if (gain > best) best = gain, bc = c, bs = side;
+          }
+        if (bc < 0) break;
+        ++Cs[bc][bs];
+        budget -= cost(bc);
+      }
+    } else {
+      for (int c = 0; c < 3; ++c)
+        for (int side = 0; side < 2; ++side) {
+          if (avail(c, side) == 0) continue;
+          // Residual as a fraction of the data energy (Σ s_j² ≈ ‖A‖²).
+          const double frac =
+              m_energy > 0 ? pcaBudget2 * m_channelEnergy(c) / bases[c][side].total : 0;
+          Cs[c][side] =
+              std::min(avail(c, side), std::max(1, la::componentsForResidual(bases[c][side], frac)));
+        }
+    }
     for (int c = 0; c < 3; ++c) {
       nlohmann::ordered_json cj;
       cj["channel"] = c;
       cj["slots"] = K[c];
       cj["factors"] = nf[c];
-      int Cs[2] = {0, 0};
-      la::Basis bases[2];
-      if (K[c] > 0) {
-        for (int side = 0; side < 2; ++side) {
-          // Samples: s_j · unit factor (the reconstruction error a side's projection error causes
-          // scales with s_j).
-          la::MatF X(m_n, nf[c]);
-          int64_t col = 0;
-          for (int64_t t = 0; t < T; ++t) {
-            const TexelFactors& f = m_f[size_t(t) * 3 + size_t(c)];
-            for (int j = 0; j < f.rank(); ++j, ++col) {
-              const float* src = (side == 0 ? f.view.data() : f.light.data()) + size_t(j) * m_n;
-              for (int i = 0; i < m_n; ++i) X(i, col) = f.scale[size_t(j)] * src[i];
-            }
-          }
-          bases[side] = la::pcaBasis(X, maxC);
-          int C = fixedC;
-          if (C == 0) {
-            // Residual as a fraction of the data energy (Σ s_j² ≈ ‖A‖²).
-            const double frac =
-                m_energy > 0 ? pcaBudget2 * m_channelEnergy(c) / bases[side].total : 0;
-            C = std::max(1, la::componentsForResidual(bases[side], frac));
-          }
-          Cs[side] = std::min<int>(C, int(bases[side].B.cols()));
-        }
-      }
-      const int Cv = Cs[0], Cl = Cs[1];
+      const la::Basis* bs = bases[c];
+      const int Cv = Cs[c][0], Cl = Cs[c][1];
       cj["components_view"] = Cv;
       cj["components_light"] = Cl;
       chans.push_back(cj);
@@ -153,8 +178,8 @@ class NmfEncoder final : public Encoder {
       CArray& bv = out.add(p + "basis_view", type, m_n, Cv);
       CArray& bl = out.add(p + "basis_light", type, m_n, Cl);
       for (int i = 0; i < m_n; ++i) {
-        for (int a = 0; a < Cv; ++a) bv.data[size_t(i) * Cv + a] = bases[0].B(i, a);
-        for (int a = 0; a < Cl; ++a) bl.data[size_t(i) * Cl + a] = bases[1].B(i, a);
+        for (int a = 0; a < Cv; ++a) bv.data[size_t(i) * Cv + a] = bs[0].B(i, a);
+        for (int a = 0; a < Cl; ++a) bl.data[size_t(i) * Cl + a] = bs[1].B(i, a);
       }
       CArray& cv = out.add(p + "coef_view", type, T, int64_t(K[c]) * Cv);
       CArray& cl = out.add(p + "coef_light", type, T, int64_t(K[c]) * Cl);
