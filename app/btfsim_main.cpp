@@ -93,7 +93,8 @@ int main(int argc, char** argv) {
   c->add_option("--size", sl.size, "hemisphere image size in pixels");
 
   InfoArgs in;
-  auto* i = app.add_subcommand("info", "print a BTF store's header and verify every checksum");
+  auto* i = app.add_subcommand(
+      "info", "print a BTF's header (raw or compressed) and verify every checksum");
   i->add_option("btf", in.btf, "BTF store")->required();
   i->add_flag("--json", in.json, "JSON output");
 
@@ -155,6 +156,7 @@ int main(int argc, char** argv) {
       ->required();
   addCodecOptions(cp, ca.codec, true);
   cp->add_option("--threads", ca.threads, "worker threads");
+  cp->add_option("--memory-budget", ca.memoryBudget, "memory budget, e.g. 8G");
   cp->add_flag("--compare", ca.compare, "also measure the error against the input");
   cp->add_flag("--json", ca.json, "JSON summary on stdout");
   cp->add_flag("-q,--quiet", ca.quiet, "no progress bar");

@@ -143,6 +143,14 @@ int simulateCompressed(const SimulateArgs& a, SimulationJob& job, const SimEstim
   const CodecSettings cs = codecSettings(ca);
   const BtfInfo info = job.storeInfo(est.chunkTexels);
   auto enc = makeEncoder(cs, info);
+  const double need = double(est.memoryBytes) + double(enc->memoryBytes()) +
+                      double(enc->trainingTexels().size()) * double(info.texelBytes());
+  if (need > double(o.memoryBudget))
+    throw Error("refusing to start: simulating and compressing needs about " + formatBytes(need) +
+                " (simulation " + formatBytes(double(est.memoryBytes)) + ", encoder " +
+                formatBytes(double(enc->memoryBytes())) + ", training texels " +
+                formatBytes(double(enc->trainingTexels().size()) * double(info.texelBytes())) +
+                ") but --memory-budget is " + formatBytes(double(o.memoryBudget)));
   std::fprintf(stderr,
                "streaming into codec %s: no raw BTF is written (raw size would be %s); encoder "
                "memory about %s\n",
@@ -460,6 +468,45 @@ int slice(const SliceArgs& a) {
 }
 
 int info(const InfoArgs& a) {
+  if (isCompressedFile(a.btf)) {
+    const CompressedBtf c = readCompressed(a.btf);  // verifies every checksum or throws
+    const BtfInfo& I = c.info;
+    if (a.json) {
+      json j;
+      j["format"] = "btfstudio-compressed-btf";
+      j["codec"] = c.codec;
+      j["colour"] = c.colour;
+      j["params"] = json::parse(c.paramsJson);
+      j["stats"] = json::parse(c.statsJson);
+      j["texels"] = {I.nu, I.nv};
+      j["directions"] = I.directionSet;
+      j["file_bytes"] = c.fileBytes();
+      j["ratio"] = c.ratio();
+      j["verified"] = true;
+      json arrays = json::array();
+      for (const auto& x : c.arrays)
+        arrays.push_back({{"name", x.name},
+                          {"rows", x.rows},
+                          {"cols", x.cols},
+                          {"type", x.type == ArrayType::F16 ? "f16" : "f32"}});
+      j["arrays"] = arrays;
+      std::cout << j.dump(2) << std::endl;
+    } else {
+      std::printf("%s: compressed BTF, codec %s (%s), %s, ratio 1:%.0f\n", a.btf.c_str(),
+                  c.codec.c_str(), c.colour.c_str(), formatBytes(double(c.fileBytes())).c_str(),
+                  c.ratio());
+      std::printf("  scene        %s (hash %s)\n", I.sceneName.c_str(), I.sceneHash.c_str());
+      std::printf("  texels       %d x %d\n", I.nu, I.nv);
+      std::printf("  directions   %s (%d)\n", I.directionSet.c_str(), I.nDirs());
+      std::printf("  params       %s\n  stats        %s\n", c.paramsJson.c_str(),
+                  c.statsJson.c_str());
+      for (const auto& x : c.arrays)
+        std::printf("  array        %-18s %lld x %lld %s\n", x.name.c_str(), (long long)x.rows,
+                    (long long)x.cols, x.type == ArrayType::F16 ? "f16" : "f32");
+      std::printf("  checksums    all verified\n");
+    }
+    return 0;
+  }
   BtfReader r(a.btf);
   const BtfInfo& I = r.info();
   const auto v = r.verify();
@@ -826,7 +873,8 @@ int study(const StudyArgs& a) {
 namespace btf::cli {
 
 int compress(const CompressArgs& a) {
-  const CodecSettings cs = codecSettings(a.codec);
+  CodecSettings cs = codecSettings(a.codec);
+  cs.memoryBudget = parseBytes(a.memoryBudget);
   ThreadLimit limit(a.threads);
   CompressReport rep;
   const CompressedBtf c = compressStore(a.input, cs, !a.quiet, nullptr, &rep);

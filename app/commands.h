@@ -41,6 +41,7 @@ struct CompressArgs {
   std::string input, output;
   CodecArgs codec;
   int threads = 0;
+  std::string memoryBudget = "8G";
   bool compare = false, json = false, quiet = false;
 };
 int compress(const CompressArgs& a);

@@ -57,6 +57,14 @@ std::string settingsJson(const CodecSettings& s) {
   return j.dump();
 }
 
+std::string channelArray(int channel, const char* what) {
+  std::string s = "c";
+  s += char('0' + channel);
+  s += '.';
+  s += what;
+  return s;
+}
+
 int colourChannels(const std::string&) {
   return 3;
 }

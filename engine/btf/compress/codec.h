@@ -34,9 +34,10 @@ struct CodecSettings {
   int nmfIterations = 60;
   double nmfTolerance = 1e-4;
   // Baselines.
-  int trainTexels = 256;  // stratified training subset (per-view, global SVD, clustered PCA)
-  int clusters = 8;       // clustered PCA
-  bool half = true;       // f16 arrays (else f32)
+  int trainTexels = 256;      // stratified training subset (per-view, global SVD, clustered PCA)
+  int clusters = 8;           // clustered PCA
+  bool half = true;           // f16 arrays (else f32)
+  uint64_t memoryBudget = 0;  // > 0: compressStore refuses to start beyond it
   uint64_t seed = 1;
 };
 
@@ -45,6 +46,9 @@ const std::vector<std::string>& codecNames();
 /// Checks names and ranges; btf::Error names the option.
 void validate(const CodecSettings& s);
 std::string settingsJson(const CodecSettings& s);
+
+/// "c{channel}.{what}": the name of a channel's array in the file.
+std::string channelArray(int channel, const char* what);
 
 /// Colour decorrelation shared by all codecs.
 int colourChannels(const std::string& colour);  // 3 for both models (ycc keeps 3 channels)

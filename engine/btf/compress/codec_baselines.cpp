@@ -144,7 +144,8 @@ class TrainedEncoder : public Encoder {
         int best = -1;
         double bv = 0;
         for (int c = 0; c < 3; ++c)
-          if (idx[c] < std::min<int>(maxC, int(spectra[c].B.cols())) && spectra[c].eigen[idx[c]] > bv)
+          if (idx[c] < std::min<int>(maxC, int(spectra[c].B.cols())) &&
+              spectra[c].eigen[idx[c]] > bv)
             bv = spectra[c].eigen[idx[c]], best = c;
         if (best < 0 || budget < cost) break;
         ++idx[best];
@@ -227,11 +228,11 @@ class SvdEncoder final : public TrainedEncoder {
     });
     double kept = 0;
     for (int c = 0; c < 3; ++c) {
-      CArray& a = m_out.add("c" + std::to_string(c) + ".basis", type(), m_lv, m_C[c]);
+      CArray& a = m_out.add(channelArray(c, "basis"), type(), m_lv, m_C[c]);
       m_B[c] = storeBasis(a, 0, b[c].B.leftCols(m_C[c]));
       m_G[c] = gramInverse(m_B[c]);
       for (int k = 0; k < m_C[c]; ++k) kept += b[c].eigen[k];
-      m_coef[c] = &m_out.add("c" + std::to_string(c) + ".coef", type(), m_info.texels(), m_C[c]);
+      m_coef[c] = &m_out.add(channelArray(c, "coef"), type(), m_info.texels(), m_C[c]);
     }
     m_trainRel = m_trainEnergy > 0 ? std::sqrt(std::max(0.0, 1 - kept / m_trainEnergy)) : 0;
   }
@@ -292,7 +293,7 @@ class PerViewEncoder final : public TrainedEncoder {
     });
     double kept = 0;
     for (int c = 0; c < 3; ++c) {
-      CArray& a = m_out.add("c" + std::to_string(c) + ".basis", type(), m_lv, m_C[c]);
+      CArray& a = m_out.add(channelArray(c, "basis"), type(), m_lv, m_C[c]);
       m_B[c].resize(size_t(m_n));
       m_G[c].resize(size_t(m_n));
       for (int v = 0; v < m_n; ++v) {
@@ -305,8 +306,8 @@ class PerViewEncoder final : public TrainedEncoder {
         m_G[c][size_t(v)] = gramInverse(m_B[c][size_t(v)].leftCols(have));
         m_have[c].push_back(have);
       }
-      m_coef[c] = &m_out.add("c" + std::to_string(c) + ".coef", type(), m_info.texels(),
-                             int64_t(m_n) * m_C[c]);
+      m_coef[c] =
+          &m_out.add(channelArray(c, "coef"), type(), m_info.texels(), int64_t(m_n) * m_C[c]);
     }
     m_trainRel = m_trainEnergy > 0 ? std::sqrt(std::max(0.0, 1 - kept / m_trainEnergy)) : 0;
   }
@@ -455,7 +456,7 @@ class LpcaEncoder final : public TrainedEncoder {
     double kept = 0;
     m_cluster = &m_out.add("cluster", ArrayType::F32, m_info.texels(), 1);
     for (int c = 0; c < 3; ++c) {
-      CArray& a = m_out.add("c" + std::to_string(c) + ".basis", type(), int64_t(K) * m_lv, m_C[c]);
+      CArray& a = m_out.add(channelArray(c, "basis"), type(), int64_t(K) * m_lv, m_C[c]);
       for (int k = 0; k < K; ++k) {
         const la::Basis& bk = b[size_t(c) * K + k];
         const int have = std::min<int>(m_C[c], int(bk.B.cols()));
@@ -466,7 +467,7 @@ class LpcaEncoder final : public TrainedEncoder {
         m_G[c].push_back(gramInverse(m_B[c].back().leftCols(have)));
         m_have[c].push_back(have);
       }
-      m_coef[c] = &m_out.add("c" + std::to_string(c) + ".coef", type(), m_info.texels(), m_C[c]);
+      m_coef[c] = &m_out.add(channelArray(c, "coef"), type(), m_info.texels(), m_C[c]);
     }
     m_K = K;
     m_trainRel = m_trainEnergy > 0 ? std::sqrt(std::max(0.0, 1 - kept / m_trainEnergy)) : 0;
@@ -539,8 +540,8 @@ class LinearDecoder final : public Decoder {
     m_mode = m_c.codec == "svd" ? 0 : m_c.codec == "perview" ? 1 : 2;
     if (m_mode == 2) m_cluster = &m_c.array("cluster");
     for (int ch = 0; ch < 3; ++ch) {
-      m_b[ch] = &m_c.array("c" + std::to_string(ch) + ".basis");
-      m_k[ch] = &m_c.array("c" + std::to_string(ch) + ".coef");
+      m_b[ch] = &m_c.array(channelArray(ch, "basis"));
+      m_k[ch] = &m_c.array(channelArray(ch, "coef"));
       const int64_t C = m_b[ch]->cols;
       const int64_t expectCols = m_mode == 1 ? int64_t(m_n) * C : C;
       const int64_t K = m_mode == 2 ? (m_lv ? m_b[ch]->rows / m_lv : 0) : 1;

@@ -160,8 +160,8 @@ class NmfEncoder final : public Encoder {
           // Residual as a fraction of the data energy (Σ s_j² ≈ ‖A‖²).
           const double frac =
               m_energy > 0 ? pcaBudget2 * m_channelEnergy(c) / bases[c][side].total : 0;
-          Cs[c][side] =
-              std::min(avail(c, side), std::max(1, la::componentsForResidual(bases[c][side], frac)));
+          Cs[c][side] = std::min(avail(c, side),
+                                 std::max(1, la::componentsForResidual(bases[c][side], frac)));
         }
     }
     for (int c = 0; c < 3; ++c) {
@@ -174,15 +174,14 @@ class NmfEncoder final : public Encoder {
       cj["components_view"] = Cv;
       cj["components_light"] = Cl;
       chans.push_back(cj);
-      const std::string p = "c" + std::to_string(c) + ".";
-      CArray& bv = out.add(p + "basis_view", type, m_n, Cv);
-      CArray& bl = out.add(p + "basis_light", type, m_n, Cl);
+      CArray& bv = out.add(channelArray(c, "basis_view"), type, m_n, Cv);
+      CArray& bl = out.add(channelArray(c, "basis_light"), type, m_n, Cl);
       for (int i = 0; i < m_n; ++i) {
         for (int a = 0; a < Cv; ++a) bv.data[size_t(i) * Cv + a] = bs[0].B(i, a);
         for (int a = 0; a < Cl; ++a) bl.data[size_t(i) * Cl + a] = bs[1].B(i, a);
       }
-      CArray& cv = out.add(p + "coef_view", type, T, int64_t(K[c]) * Cv);
-      CArray& cl = out.add(p + "coef_light", type, T, int64_t(K[c]) * Cl);
+      CArray& cv = out.add(channelArray(c, "coef_view"), type, T, int64_t(K[c]) * Cv);
+      CArray& cl = out.add(channelArray(c, "coef_light"), type, T, int64_t(K[c]) * Cl);
       // Quantize the bases first so the coefficients are fitted to what is stored.
       const la::MatF Bv = quantizedBasis(bv, Cv), Bl = quantizedBasis(bl, Cl);
       parallelForChunks(T, 256, [&](int64_t b, int64_t e) {
@@ -286,11 +285,10 @@ class NmfDecoder final : public Decoder {
   explicit NmfDecoder(CompressedBtf c) : Decoder(c.info), m_c(std::move(c)) {
     m_n = m_info.nDirs();
     for (int ch = 0; ch < 3; ++ch) {
-      const std::string p = "c" + std::to_string(ch) + ".";
-      m_bv[ch] = &m_c.array(p + "basis_view");
-      m_bl[ch] = &m_c.array(p + "basis_light");
-      m_cv[ch] = &m_c.array(p + "coef_view");
-      m_cl[ch] = &m_c.array(p + "coef_light");
+      m_bv[ch] = &m_c.array(channelArray(ch, "basis_view"));
+      m_bl[ch] = &m_c.array(channelArray(ch, "basis_light"));
+      m_cv[ch] = &m_c.array(channelArray(ch, "coef_view"));
+      m_cl[ch] = &m_c.array(channelArray(ch, "coef_light"));
       const int64_t Cv = m_bv[ch]->cols, Cl = m_bl[ch]->cols;
       if (m_bv[ch]->rows != m_n || m_bl[ch]->rows != m_n || m_cv[ch]->rows != m_info.texels() ||
           m_cl[ch]->rows != m_info.texels() || (Cv > 0 && m_cv[ch]->cols % Cv) ||

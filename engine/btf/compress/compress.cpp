@@ -30,6 +30,18 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
   r.texels = info.texels();
   const auto train = enc->trainingTexels();
   const size_t stride = size_t(info.nDirs()) * info.nDirs() * 3;
+  if (s.memoryBudget > 0) {
+    const double encoder = double(enc->memoryBytes());
+    const double training = double(train.size()) * double(info.texelBytes());
+    const double chunk = double(info.chunkTexels) * double(info.texelBytes());
+    if (encoder + training + chunk > double(s.memoryBudget))
+      throw Error("refusing to start: compressing " + inPath + " with " + s.codec +
+                  " needs about " + formatBytes(encoder + training + chunk) + " (encoder " +
+                  formatBytes(encoder) + ", training texels " + formatBytes(training) +
+                  ", one chunk " + formatBytes(chunk) + ") but the memory budget is " +
+                  formatBytes(double(s.memoryBudget)) +
+                  "; lower --train-texels or --max-rank, or raise --memory-budget");
+  }
   if (!train.empty()) {
     const auto t0 = Clock::now();
     std::vector<float> values(train.size() * stride);

@@ -201,7 +201,7 @@ Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int compo
   put<uint32_t>(out, 0);  // rotations
   int maxC = 0;
   for (int ch = 0; ch < 3; ++ch) {
-    rep.components[ch] = int(c.array("c" + std::to_string(ch) + ".basis").cols);
+    rep.components[ch] = int(c.array(channelArray(ch, "basis")).cols);
     maxC = std::max(maxC, rep.components[ch]);
   }
   put<uint32_t>(out, uint32_t(maxC));
@@ -211,8 +211,8 @@ Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int compo
   const int64_t rows = int64_t(n) * n;
   const double balance = std::sqrt(double(rows));  // U·√rows, SxV/√rows: both near data scale
   for (int ch = 0; ch < 3; ++ch) {
-    const CArray& U = c.array("c" + std::to_string(ch) + ".basis");  // rows v·nL + l = l + nL·v
-    const CArray& K = c.array("c" + std::to_string(ch) + ".coef");   // texel u + Nu·v
+    const CArray& U = c.array(channelArray(ch, "basis"));  // rows v·nL + l = l + nL·v
+    const CArray& K = c.array(channelArray(ch, "coef"));   // texel u + Nu·v
     const int C = int(U.cols);
     put<uint8_t>(out, 2);
     put<uint32_t>(out, uint32_t(C));

@@ -97,6 +97,9 @@ TEST(BtfsimCompress, BadInputsAreClearErrors) {
       {"compare " + a + " " + (dir / "b.btf").string(), "texel grids differ"},
       {"compare " + a + " " + (dir / "junk.cbtf").string(), "junk.cbtf: truncated file"},
       {"export " + a + " --format obj -o x", "unknown export format 'obj'"},
+      {"compress " + a + " -o x.cbtf --codec svd --memory-budget 1M",
+       "refusing to start: compressing"},
+      {"info " + (dir / "junk.cbtf").string(), "truncated file"},
       {"simulate " + scenePath("bumps") + " --texels 4 -q -o x.cbtf --compress zip",
        "unknown codec 'zip'"},
   };

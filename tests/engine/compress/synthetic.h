@@ -19,7 +19,8 @@ inline BtfInfo syntheticInfo(int nu, int nv, const std::string& dirs) {
   info.nu = nu;
   info.nv = nv;
   info.directionSet = dirs;
-  for (const auto& d : DirectionSet::fromName(dirs).dirs())
+  const DirectionSet set = DirectionSet::fromName(dirs);
+  for (const auto& d : set.dirs())
     info.dirsDeg.push_back({d.theta * 180 / M_PI, d.phi * 180 / M_PI});
   info.chunkTexels = 7;
   info.hasVmf = false;
