@@ -127,7 +127,25 @@ CodecSettings codecSettings(const CodecArgs& a) {
   return s;
 }
 
+// Says when a codec's own stage already exceeds the error target (the target only steers).
+void warnTarget(const CompressedBtf& c) {
+  const json params = json::parse(c.paramsJson), stats = json::parse(c.statsJson);
+  const double target = params.value("target_ratio", 0.0) > 0  ? 0.0
+                        : params.value("target_rmse", 0.0) > 0 ? params.value("target_rmse", 0.0)
+                                                               : 0.05;
+  if (target <= 0) return;
+  const double stage = stats.value("nmf_relative_rmse", stats.value("training_relative_rmse", 0.0));
+  if (stage > target * 1.05)
+    std::fprintf(stderr,
+                 "btfsim: warning: the %s stage alone leaves a relative RMSE of %.1f %% (target "
+                 "%.1f %%)%s\n",
+                 c.codec.c_str(), 100 * stage, 100 * target,
+                 c.codec == "nmf" ? ": the per-texel rank cap binds — raise --max-rank"
+                                  : " on the training texels: raise --train-texels");
+}
+
 void printCompressed(const CompressedBtf& c, double seconds, uint64_t rss) {
+  warnTarget(c);
   const double raw = double(c.info.texels()) * c.info.nDirs() * c.info.nDirs() * 12.0;
   std::printf("  codec %s (%s): %s -> %s, ratio 1:%.0f, %s, peak memory %s\n", c.codec.c_str(),
               c.colour.c_str(), formatBytes(raw).c_str(),
