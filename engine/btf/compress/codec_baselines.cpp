@@ -135,41 +135,26 @@ class TrainedEncoder : public Encoder {
       for (int c = 0; c < 3; ++c) m_C[c] = std::min<int>(C, int(spectra[c].B.cols()));
       return;
     }
-    if (m_s.targetRatio > 0) {
-      // Greedy: the largest eigenvalue across channels while the size model fits raw/ratio.
-      const double cost = (bytesOf(2) - bytesOf(1)) / 3, fixed = bytesOf(1) - 3 * cost;
-      double budget = rawBytes() / m_s.targetRatio - 65536.0 - fixed;
-      int idx[3] = {0, 0, 0};
-      for (;;) {
-        int best = -1;
-        double bv = 0;
-        for (int c = 0; c < 3; ++c)
-          if (idx[c] < std::min<int>(maxC, int(spectra[c].B.cols())) &&
-              spectra[c].eigen[idx[c]] > bv)
-            bv = spectra[c].eigen[idx[c]], best = c;
-        if (best < 0 || budget < cost) break;
-        ++idx[best];
-        budget -= cost;
-      }
-      for (int c = 0; c < 3; ++c) m_C[c] = idx[c];
-      return;
-    }
-    // Shared residual budget over the three channels: keep the largest eigenvalues across
-    // channels until the unexplained energy is below target² of the total.
+    // Greedy over the three channels: keep the largest remaining eigenvalue until the size model
+    // no longer fits raw/ratio, or (error target) the unexplained energy is ≤ target² · total.
+    const bool byRatio = m_s.targetRatio > 0;
+    const double cost = (bytesOf(2) - bytesOf(1)) / 3, fixed = bytesOf(1) - 3 * cost;
+    double budget = byRatio ? rawBytes() / m_s.targetRatio - 65536.0 - fixed : 0;
     const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
     double total = 0;
     for (int c = 0; c < 3; ++c) total += spectra[c].total;
     double left = total;
     int idx[3] = {0, 0, 0};
-    while (left > target * target * total) {
+    while (byRatio ? budget >= cost : left > target * target * total) {
       int best = -1;
       double bv = 0;
       for (int c = 0; c < 3; ++c)
-        if (idx[c] < spectra[c].B.cols() && spectra[c].eigen[idx[c]] > bv)
+        if (idx[c] < std::min<int>(maxC, int(spectra[c].B.cols())) && spectra[c].eigen[idx[c]] > bv)
           bv = spectra[c].eigen[idx[c]], best = c;
       if (best < 0) break;
-      left -= bv;
       ++idx[best];
+      left -= bv;
+      budget -= cost;
     }
     for (int c = 0; c < 3; ++c) m_C[c] = idx[c];
   }
@@ -205,6 +190,23 @@ la::MatF storeBasis(CArray& a, int64_t row0, const la::MatF& B) {
 la::MatF gramInverse(const la::MatF& B) {
   if (B.cols() == 0) return la::MatF(0, 0);
   return (B.transpose() * B).ldlt().solve(la::MatF::Identity(B.cols(), B.cols()));
+}
+
+// Several bases that share one component count (per view, per cluster): their spectra summed
+// by rank position, so the k-th components of all of them are kept or dropped together. Only
+// the eigenvalues, the total and the column count (B is empty) are filled.
+la::Basis mergeSpectra(const std::vector<la::Basis>& b, size_t first, int count, int maxC) {
+  la::Basis m;
+  m.eigen = la::VecD::Zero(maxC);
+  int cols = 0;
+  for (int i = 0; i < count; ++i) {
+    const la::Basis& x = b[first + size_t(i)];
+    m.total += x.total;
+    for (int k = 0; k < std::min<int>(maxC, int(x.eigen.size())); ++k) m.eigen[k] += x.eigen[k];
+    cols = std::max(cols, int(x.B.cols()));
+  }
+  m.B.resize(0, cols);
+  return m;
 }
 
 // ------------------------------------------------------------------ svd
@@ -272,22 +274,9 @@ class PerViewEncoder final : public TrainedEncoder {
         b[size_t(i)] = la::pcaBasis(m_X[c].middleRows(int64_t(v) * m_n, m_n), maxC);
       }
     });
-    // One C for all views of a channel (fixed layout): merge the per-view spectra by rank
-    // position (the k-th components of every view are kept or dropped together).
+    // One C for all views of a channel (fixed layout).
     la::Basis merged[3];
-    for (int c = 0; c < 3; ++c) {
-      merged[c].eigen = la::VecD::Zero(maxC);
-      merged[c].total = 0;
-      int cols = 0;
-      for (int v = 0; v < m_n; ++v) {
-        const la::Basis& bv = b[size_t(c) * m_n + v];
-        merged[c].total += bv.total;
-        for (int k = 0; k < std::min<int>(maxC, int(bv.eigen.size())); ++k)
-          merged[c].eigen[k] += bv.eigen[k];
-        cols = std::max(cols, int(bv.B.cols()));
-      }
-      merged[c].B.resize(0, cols);
-    }
+    for (int c = 0; c < 3; ++c) merged[c] = mergeSpectra(b, size_t(c) * m_n, m_n, maxC);
     chooseComponents(merged, maxC, [&](int C) {
       return 3.0 * (double(m_lv) * C + double(m_info.texels()) * m_n * C) * scalarBytes();
     });
@@ -437,18 +426,7 @@ class LpcaEncoder final : public TrainedEncoder {
       }
     }
     la::Basis merged[3];
-    for (int c = 0; c < 3; ++c) {
-      merged[c].eigen = la::VecD::Zero(maxC);
-      int cols = 0;
-      for (int k = 0; k < K; ++k) {
-        const la::Basis& bk = b[size_t(c) * K + k];
-        merged[c].total += bk.total;
-        for (int q = 0; q < std::min<int>(maxC, int(bk.eigen.size())); ++q)
-          merged[c].eigen[q] += bk.eigen[q];
-        cols = std::max(cols, int(bk.B.cols()));
-      }
-      merged[c].B.resize(0, cols);
-    }
+    for (int c = 0; c < 3; ++c) merged[c] = mergeSpectra(b, size_t(c) * K, K, maxC);
     chooseComponents(merged, maxC, [&](int C) {
       return 3.0 * (double(K) * m_lv * C + double(m_info.texels()) * C) * scalarBytes() +
              double(m_info.texels()) * scalarBytes();
