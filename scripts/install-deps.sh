@@ -5,7 +5,7 @@ set -euo pipefail
 PKGS=(cmake ninja-build g++ make pkg-config libglfw3-dev libglm-dev libimgui-dev libembree-dev
   libopenmesh-dev libopenimageio-dev libosd-dev libgtest-dev libbenchmark-dev libeigen3-dev
   libtbb-dev libcli11-dev nlohmann-json3-dev xvfb xauth libgl1-mesa-dri mesa-utils libegl1
-  libegl-mesa0)
+  libegl-mesa0 fonts-dejavu-core)
 missing=()
 for p in "${PKGS[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

@@ -6,10 +6,29 @@
 
 namespace btf {
 
+namespace {
+thread_local ProgressState* t_observer = nullptr;
+}
+
+ProgressState* ProgressReporter::observe(ProgressState* state) {
+  ProgressState* prev = t_observer;
+  t_observer = state;
+  return prev;
+}
+
 ProgressReporter::ProgressReporter(std::string stage, int64_t total, bool print)
     : m_stage(std::move(stage)), m_total(total < 1 ? 1 : total), m_print(print) {
   m_tty = isatty(STDERR_FILENO) != 0;
   m_start = m_lastDraw = std::chrono::steady_clock::now();
+  m_observer = t_observer;
+  if (m_observer) {
+    std::lock_guard lock(m_observer->mutex);
+    m_observer->stage = m_stage;
+    m_observer->stageStart = m_start;
+    m_observer->done = 0;
+    m_observer->total = m_total;
+    ++m_observer->stages;
+  }
 }
 
 ProgressReporter::~ProgressReporter() {
@@ -22,6 +41,7 @@ double ProgressReporter::elapsedSeconds() const {
 
 void ProgressReporter::add(int64_t n) {
   m_done.fetch_add(n, std::memory_order_relaxed);
+  if (m_observer) m_observer->done.fetch_add(n, std::memory_order_relaxed);
   if (!m_print) return;
   std::unique_lock lock(m_mutex, std::try_to_lock);
   if (!lock.owns_lock()) return;
@@ -31,6 +51,7 @@ void ProgressReporter::add(int64_t n) {
 void ProgressReporter::finish() {
   if (m_finished) return;
   m_finished = true;
+  if (m_observer) m_observer->done = m_total;
   if (!m_print) return;
   std::lock_guard lock(m_mutex);
   m_done = m_total;

@@ -10,8 +10,26 @@
 
 namespace btf {
 
+/// What a poller (the studio's job panel) sees of the running job: the current stage and its
+/// counter. A job thread installs one with ProgressReporter::observe(); every reporter created on
+/// that thread publishes into it, whichever worker calls add().
+struct ProgressState {
+  mutable std::mutex mutex;
+  std::string stage;                  // guarded by mutex
+  std::atomic<int64_t> done{0}, total{1};
+  std::atomic<int> stages{0};         // reporters started so far
+  std::chrono::steady_clock::time_point stageStart;  // guarded by mutex
+  std::string currentStage() const {
+    std::lock_guard lock(mutex);
+    return stage;
+  }
+};
+
 class ProgressReporter {
  public:
+  /// Installs `state` as the observer of reporters created on this thread (nullptr: none);
+  /// returns the previous one.
+  static ProgressState* observe(ProgressState* state);
   ProgressReporter(std::string stage, int64_t total, bool print);
   ~ProgressReporter();
   void add(int64_t n);
@@ -32,6 +50,7 @@ class ProgressReporter {
   std::chrono::steady_clock::time_point m_lastDraw;
   int m_lastDecile = -1;
   std::mutex m_mutex;
+  ProgressState* m_observer = nullptr;
 };
 
 }  // namespace btf

@@ -11,12 +11,14 @@
 
 namespace btf {
 
-uint64_t peakRssBytes() {
+namespace {
+uint64_t statusKb(const char* key) {
   std::ifstream f("/proc/self/status");
   std::string line;
+  const std::string k(key);
   while (std::getline(f, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) {
-      std::istringstream s(line.substr(6));
+    if (line.rfind(k, 0) == 0) {
+      std::istringstream s(line.substr(k.size()));
       uint64_t kb = 0;
       s >> kb;
       return kb * 1024;
@@ -24,6 +26,10 @@ uint64_t peakRssBytes() {
   }
   return 0;
 }
+}  // namespace
+
+uint64_t peakRssBytes() { return statusKb("VmHWM:"); }
+uint64_t currentRssBytes() { return statusKb("VmRSS:"); }
 
 uint64_t freeDiskBytes(const std::string& path) {
   namespace fs = std::filesystem;

@@ -28,6 +28,16 @@ DirectionSet DirectionSet::fromRings(const std::string& name,
   return s;
 }
 
+DirectionSet DirectionSet::subset(const std::string& name, const std::vector<Direction>& dirs) {
+  BTF_CHECK(!dirs.empty());
+  DirectionSet s;
+  s.m_name = name;
+  s.m_dirs = dirs;
+  for (size_t i = 0; i < dirs.size(); ++i)
+    s.m_rings.push_back({dirs[i].theta, 1, dirs[i].phi, int(i)});
+  return s;
+}
+
 DirectionSet DirectionSet::bonn81() {
   // UBO2003: θ = 0, 15, 30, 45, 60, 75° with 1, 6, 12, 18, 20, 24 azimuths (81 in all).
   return fromRings("bonn81",

@@ -42,6 +42,9 @@ class DirectionSet {
   static DirectionSet fromRings(const std::string& name,
                                 const std::vector<std::array<double, 3>>& ringsDeg);
 
+  /// The given directions verbatim (angles, vectors and weights copied bit for bit), each its own
+  /// ring: what a preview of a few directions of a set traces. Not meant for interpolate().
+  static DirectionSet subset(const std::string& name, const std::vector<Direction>& dirs);
   const std::string& name() const { return m_name; }
   int size() const { return int(m_dirs.size()); }
   const Direction& operator[](int i) const { return m_dirs[size_t(i)]; }

@@ -471,6 +471,10 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     }
     tp.finish();
     m_trainSink(values.data());
+    if (m_onlyTrainingTexels) {
+      r.wallSeconds = since(start);
+      return r;
+    }
   }
   ProgressReporter pr("aBRDF", info.texels(), m_opt.progress);
   const auto evalStart = Clock::now();
@@ -526,6 +530,90 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   r.wallSeconds = since(start);
   r.peakRssBytes = peakRssBytes();
   return r;
+}
+
+std::vector<float> SimulationJob::evaluateTexels(const std::vector<int64_t>& texels,
+                                                 const CancelToken* cancel) {
+  for (int64_t t : texels)
+    if (t < 0 || t >= int64_t(m_opt.nu) * m_opt.nv) throw Error("texel index out of range");
+  std::vector<float> out;
+  const size_t n = texels.size() * size_t(m_dirs.size()) * size_t(m_dirs.size()) * 3;
+  auto savedTexels = std::move(m_trainTexels);
+  auto savedSink = std::move(m_trainSink);
+  m_trainTexels = texels;
+  m_trainSink = [&](const float* v) { out.assign(v, v + n); };
+  m_onlyTrainingTexels = true;
+  const bool progress = m_opt.progress;
+  m_opt.progress = false;
+  SimEstimate est;
+  est.chunkTexels = m_opt.nu * m_opt.nv;
+  try {
+    run("", est, cancel);
+  } catch (...) {
+    m_onlyTrainingTexels = false;
+    m_opt.progress = progress;
+    m_trainTexels = std::move(savedTexels);
+    m_trainSink = std::move(savedSink);
+    throw;
+  }
+  m_onlyTrainingTexels = false;
+  m_opt.progress = progress;
+  m_trainTexels = std::move(savedTexels);
+  m_trainSink = std::move(savedSink);
+  if (cancel && cancel->cancelled()) out.clear();
+  return out;
+}
+
+std::vector<float> SimulationJob::renderPair(const Direction& view, const Direction& light, int nu,
+                                             int nv, bool indirect,
+                                             const CancelToken* cancel) const {
+  if (nu < 1 || nv < 1 || nu > 8192 || nv > 8192) throw Error("preview size must be 1..8192");
+  // The pair as a two-direction set: the view's hit map and the light's shadow map are the same
+  // rays as in the full set, so each value is the one run() stores for that pair.
+  const DirectionSet pair = DirectionSet::subset("pair", {view, light});
+  const bool pt = m_opt.method == "pt";
+  const EffectPlan* pl = indirect ? &plan() : nullptr;
+  const bool selfShadowing = pl ? pl->selfShadowing : true;
+  const bool gi = indirect && !pt && pl->interreflection;
+  SampleGrid grid{nu, nv, m_opt.spp, m_scene.Lx, m_scene.Ly, m_opt.seed};
+  HitMaps maps;
+  maps.build(*m_tracer, pair, grid, nullptr, cancel);
+  std::vector<float> img(size_t(nu) * size_t(nv) * 3, 0.f);
+  if (cancel && cancel->cancelled()) return img;
+  const ShadowMode mode = selfShadowing ? m_opt.shadows : ShadowMode::None;
+  DirectIllumination direct(*m_tracer, m_materials, pair, maps, {mode, m_opt.shadowBias});
+  NetworkLighting lighting;
+  std::unique_ptr<NetworkGather> gather;
+  if (gi) {
+    const GlossyGather glossy = glossyGather();
+    lighting.solve(
+        *m_network, m_geom, m_materials, pair,
+        [&](int l, const Vec3& p, const Vec3& ng, uint32_t prim) {
+          return direct.lightVisibility(l, p, ng, prim);
+        },
+        pl->bounces, glossy, nullptr, cancel);
+    gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
+  }
+  TexelKernel kernel{*m_tracer, m_materials, pair, maps, direct, gather.get(), pt && indirect,
+                     {},         1,           {}};
+  kernel.ptPaths = m_opt.ptPaths;
+  kernel.pt.maxBounces = pl && pl->interreflection ? pl->bounces : 1;
+  kernel.pt.seed = m_opt.seed;
+  for (const auto& d : pair.dirs()) kernel.lights.push_back(DVec3(Vec3(d.w)));
+  parallelForChunks(
+      int64_t(nu) * nv, 64,
+      [&](int64_t b, int64_t e) {
+        float row[6];
+        for (int64_t t = b; t < e; ++t) {
+          kernel.eval(int(t % nu), int(t / nu), 0, row);
+          for (int c = 0; c < 3; ++c) {
+            const float v = row[3 + c];
+            img[size_t(t) * 3 + c] = std::isfinite(v) ? v : 0.f;
+          }
+        }
+      },
+      cancel);
+  return img;
 }
 
 }  // namespace btf

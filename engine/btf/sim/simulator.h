@@ -103,6 +103,16 @@ class SimulationJob {
     m_trainTexels = std::move(texels);
     m_trainSink = std::move(sink);
   }
+  /// The aBRDF image of one (view, light) pair over an nu × nv texel grid (row-major, RGB),
+  /// computed exactly as run() computes that pair (same samples, shadow maps and, when
+  /// `indirect` and the plan asks for it, the network's inter-reflection): the studio's live
+  /// preview. Directions from the job's set give the values `btfsim slice` reads from the store.
+  std::vector<float> renderPair(const Direction& view, const Direction& light, int nu, int nv,
+                                bool indirect, const CancelToken* cancel = nullptr) const;
+  /// Every value (views × lights × RGB, texel-major in the given order) of a few texels, as run()
+  /// computes them: the studio's texel BRDF view. Empty when cancelled.
+  std::vector<float> evaluateTexels(const std::vector<int64_t>& texels,
+                                    const CancelToken* cancel = nullptr);
   /// The store header this job writes (chunk size from the memory budget).
   BtfInfo storeInfo(int chunkTexels) const;
 
@@ -125,6 +135,7 @@ class SimulationJob {
   ChunkSink m_sink;
   std::vector<int64_t> m_trainTexels;
   TrainingSink m_trainSink;
+  bool m_onlyTrainingTexels = false;
 };
 
 }  // namespace btf

@@ -181,6 +181,7 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
   std::map<std::string, std::vector<Rgb>> setReference;  // per direction set, snapped probes
   ProgressReporter pr("study", int64_t(configs.size()), o.progress);
   for (const StudyConfig& c : configs) {
+    if (o.cancel && o.cancel->cancelled()) throw Error("study cancelled");
     SimOptions so = base;
     so.method = c.method;
     so.ptPaths = c.paths;

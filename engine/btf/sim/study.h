@@ -53,6 +53,7 @@ struct StudyOptions {
   int imageSpp = 4, imagePaths = 8;
   uint64_t seed = 1;
   bool progress = true;
+  const CancelToken* cancel = nullptr;  // checked between configurations
 };
 
 struct Study {

@@ -1,0 +1,143 @@
+// Decoding a compressed BTF (.cbtf, docs/compression.md) on the GPU: the arrays are texture
+// buffers (R16F holds the file's half bits, R32F its floats); direction interpolation follows
+// DirectionSet::interpolate (ring-linear in θ, linear in φ inside a ring); texels are bilinear
+// (periodic). Included, after the #version line, by btf_object.frag and btf_check.frag.
+#define MAX_RINGS 48
+uniform int u_nRings;
+uniform float u_ringTheta[MAX_RINGS];
+uniform float u_ringPhi0[MAX_RINGS];
+uniform int u_ringCount[MAX_RINGS];
+uniform int u_ringFirst[MAX_RINGS];
+uniform int u_nu;
+uniform int u_nv;
+uniform int u_n;      // directions in the set
+uniform int u_codec;  // 0 nmf, 1 svd, 2 perview, 3 lpca
+uniform int u_ycc;    // 1: channels are Y, U, V
+uniform int u_c0[3];  // nmf: Cv; linear codecs: C
+uniform int u_c1[3];  // nmf: Cl
+uniform int u_k[3];   // nmf: slots K
+// Channel ch's arrays: nmf basis_view, basis_light, coef_view, coef_light; linear codecs use
+// a = basis, b = coef.
+uniform samplerBuffer u_a0, u_b0, u_c0buf, u_d0;
+uniform samplerBuffer u_a1, u_b1, u_c1buf, u_d1;
+uniform samplerBuffer u_a2, u_b2, u_c2buf, u_d2;
+uniform samplerBuffer u_cluster;
+
+const float kTwoPi = 6.283185307179586;
+
+void inRing(int r, float wRing, float phi, inout int k, inout int idx[4], inout float w[4]) {
+  int cnt = u_ringCount[r];
+  if (cnt == 1) {
+    idx[k] = u_ringFirst[r];
+    w[k] = wRing;
+    k++;
+    return;
+  }
+  float stp = kTwoPi / float(cnt);
+  float x = (phi - u_ringPhi0[r]) / stp;
+  x -= floor(x / float(cnt)) * float(cnt);
+  float j0f = floor(x);
+  float f = x - j0f;
+  int j0 = int(j0f) % cnt;
+  int j1 = (j0 + 1) % cnt;
+  idx[k] = u_ringFirst[r] + j0;
+  w[k] = wRing * (1.0 - f);
+  k++;
+  idx[k] = u_ringFirst[r] + j1;
+  w[k] = wRing * f;
+  k++;
+}
+
+// Up to four directions and weights (summing to 1) at (θ, φ) in radians.
+void interpolateDirs(float theta, float phi, out int idx[4], out float w[4]) {
+  for (int i = 0; i < 4; ++i) {
+    idx[i] = 0;
+    w[i] = 0.0;
+  }
+  int k = 0;
+  if (theta <= u_ringTheta[0] || u_nRings == 1) {
+    inRing(0, 1.0, phi, k, idx, w);
+  } else if (theta >= u_ringTheta[u_nRings - 1]) {
+    inRing(u_nRings - 1, 1.0, phi, k, idx, w);
+  } else {
+    int r = 0;
+    while (r + 1 < u_nRings && u_ringTheta[r + 1] < theta) ++r;
+    float f = (theta - u_ringTheta[r]) / (u_ringTheta[r + 1] - u_ringTheta[r]);
+    inRing(r, 1.0 - f, phi, k, idx, w);
+    inRing(r + 1, f, phi, k, idx, w);
+  }
+}
+
+float fetch(samplerBuffer b, int i) { return texelFetch(b, i).r; }
+
+float channelNmf(samplerBuffer bv, samplerBuffer bl, samplerBuffer cv, samplerBuffer cl, int Cv,
+                 int Cl, int K, int t, int o, int l) {
+  float x = 0.0;
+  for (int j = 0; j < K; ++j) {
+    float a = 0.0, b = 0.0;
+    for (int q = 0; q < Cv; ++q) a += fetch(bv, o * Cv + q) * fetch(cv, (t * K + j) * Cv + q);
+    for (int q = 0; q < Cl; ++q) b += fetch(bl, l * Cl + q) * fetch(cl, (t * K + j) * Cl + q);
+    x += a * b;
+  }
+  return x;
+}
+
+float channelLinear(samplerBuffer basis, samplerBuffer coef, int C, int t, int o, int l) {
+  int k = o * u_n + l;
+  int row = k, crow = t * C;
+  if (u_codec == 2) crow = (t * u_n + o) * C;
+  if (u_codec == 3) row = int(fetch(u_cluster, t) + 0.5) * u_n * u_n + k;
+  float x = 0.0;
+  for (int q = 0; q < C; ++q) x += fetch(basis, row * C + q) * fetch(coef, crow + q);
+  return x;
+}
+
+float channelValue(int ch, int t, int o, int l) {
+  if (u_codec == 0) {
+    if (ch == 0) return channelNmf(u_a0, u_b0, u_c0buf, u_d0, u_c0[0], u_c1[0], u_k[0], t, o, l);
+    if (ch == 1) return channelNmf(u_a1, u_b1, u_c1buf, u_d1, u_c0[1], u_c1[1], u_k[1], t, o, l);
+    return channelNmf(u_a2, u_b2, u_c2buf, u_d2, u_c0[2], u_c1[2], u_k[2], t, o, l);
+  }
+  if (ch == 0) return channelLinear(u_a0, u_b0, u_c0[0], t, o, l);
+  if (ch == 1) return channelLinear(u_a1, u_b1, u_c0[1], t, o, l);
+  return channelLinear(u_a2, u_b2, u_c0[2], t, o, l);
+}
+
+// One stored value, RGB, clamped to >= 0 like the CPU decoder.
+vec3 decodeValue(int t, int o, int l) {
+  vec3 c = vec3(channelValue(0, t, o, l), channelValue(1, t, o, l), channelValue(2, t, o, l));
+  vec3 rgb = u_ycc == 1 ? vec3(c.x + c.y, c.x - c.y - c.z, c.x + c.z) : c;
+  return max(rgb, vec3(0.0));
+}
+
+// aBRDF of texel t at any directions (radians): 4 × 4 interpolated values.
+vec3 decodeTexel(int t, float thetaI, float phiI, float thetaO, float phiO) {
+  int li[4], vi[4];
+  float lw[4], vw[4];
+  interpolateDirs(thetaI, phiI, li, lw);
+  interpolateDirs(thetaO, phiO, vi, vw);
+  vec3 acc = vec3(0.0);
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) {
+      float w = vw[a] * lw[b];
+      if (w > 0.0) acc += w * decodeValue(t, vi[a], li[b]);
+    }
+  return acc;
+}
+
+// At a tile position (x, y) in texel units, bilinear between texel centres (periodic).
+vec3 decodeAt(float x, float y, float thetaI, float phiI, float thetaO, float phiO) {
+  float fx = x - 0.5, fy = y - 0.5;
+  float x0 = floor(fx), y0 = floor(fy);
+  float ax = fx - x0, ay = fy - y0;
+  vec3 acc = vec3(0.0);
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      float w = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
+      if (w <= 0.0) continue;
+      int u = int(mod(x0 + float(i), float(u_nu)));
+      int v = int(mod(y0 + float(j), float(u_nv)));
+      acc += w * decodeTexel(u + u_nu * v, thetaI, phiI, thetaO, phiO);
+    }
+  return acc;
+}

@@ -1,0 +1,53 @@
+// The object viewer's fragment stage (after #version and btf_decode.glsl): a per-pixel tangent
+// frame from the derivatives of position and uv, the light and view directions in that frame,
+// the decoded aBRDF times cos θi (radiance for unit irradiance), exposure and tone mapping.
+in vec3 v_pos;
+in vec3 v_normal;
+in vec2 v_uv;
+uniform vec3 u_lightDir;  // toward the light (world, unit)
+uniform vec3 u_eye;
+uniform float u_tiling;   // tiles per unit of uv
+uniform float u_exposure;
+uniform int u_toneMap;    // 0 clamp, 1 Reinhard, 2 ACES-like filmic
+uniform int u_bilinear;
+out vec4 o_colour;
+
+vec3 toneMap(vec3 c) {
+  if (u_toneMap == 1) return c / (1.0 + c);
+  if (u_toneMap == 2) {
+    vec3 a = c * (2.51 * c + 0.03), b = c * (2.43 * c + 0.59) + 0.14;
+    return clamp(a / b, 0.0, 1.0);
+  }
+  return clamp(c, 0.0, 1.0);
+}
+
+void main() {
+  vec3 n = normalize(v_normal);
+  if (!gl_FrontFacing) n = -n;
+  // Tangent along +u from the screen-space derivatives (per pixel, no vertex tangents needed).
+  vec3 dp1 = dFdx(v_pos), dp2 = dFdy(v_pos);
+  vec2 duv1 = dFdx(v_uv), duv2 = dFdy(v_uv);
+  vec3 t = dp1 * duv2.y - dp2 * duv1.y;
+  t = t - n * dot(n, t);
+  if (dot(t, t) < 1e-20) t = abs(n.x) < 0.9 ? cross(n, vec3(1, 0, 0)) : cross(n, vec3(0, 1, 0));
+  t = normalize(t);
+  vec3 b = cross(n, t);
+  vec3 wo = normalize(u_eye - v_pos);
+  vec3 wi = normalize(u_lightDir);
+  vec3 lo = vec3(dot(wo, t), dot(wo, b), dot(wo, n));
+  vec3 li = vec3(dot(wi, t), dot(wi, b), dot(wi, n));
+  vec3 colour = vec3(0.0);
+  if (li.z > 0.0 && lo.z > 0.0) {
+    float thetaI = acos(clamp(li.z, 0.0, 1.0)), phiI = atan(li.y, li.x);
+    float thetaO = acos(clamp(lo.z, 0.0, 1.0)), phiO = atan(lo.y, lo.x);
+    if (phiI < 0.0) phiI += kTwoPi;
+    if (phiO < 0.0) phiO += kTwoPi;
+    float x = fract(v_uv.x * u_tiling) * float(u_nu);
+    float y = fract(v_uv.y * u_tiling) * float(u_nv);
+    vec3 f = u_bilinear == 1 ? decodeAt(x, y, thetaI, phiI, thetaO, phiO)
+                             : decodeTexel(int(x) + u_nu * int(y), thetaI, phiI, thetaO, phiO);
+    colour = f * li.z;
+  }
+  vec3 c = toneMap(colour * u_exposure);
+  o_colour = vec4(pow(c, vec3(1.0 / 2.2)), 1.0);
+}

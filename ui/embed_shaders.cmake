@@ -1,0 +1,10 @@
+# Writes every shader as {"name", R"glsl(...)glsl"}, entries of a std::map initialiser.
+separate_arguments(SHADERS)
+set(out "")
+foreach(f ${SHADERS})
+  get_filename_component(name ${f} NAME)
+  file(READ ${f} text)
+  string(APPEND out "{\"${name}\", R\"glsl(${text})glsl\"},\n")
+endforeach()
+file(WRITE ${OUT}.tmp "${out}")
+file(RENAME ${OUT}.tmp ${OUT})

@@ -1,0 +1,128 @@
+// Background jobs: the estimate before starting, then per job its stage, progress bar, ETA,
+// memory and cancel ("stop" keeps a simulation's partial file so it resumes next time).
+#include "../app.h"
+
+#include <btf/core/sysinfo.h>
+
+#include <imgui.h>
+#include <imgui_stdlib.h>
+
+#include <filesystem>
+
+namespace btf::ui {
+
+namespace fs = std::filesystem;
+
+void drawJobsPanel(App& app) {
+  if (!ImGui::Begin("Jobs", &app.panels["Jobs"])) {
+    ImGui::End();
+    return;
+  }
+  JobForm& f = app.form;
+  ImGui::SetNextItemWidth(200);
+  ImGui::InputText("output (no extension)", &f.output);
+  ImGui::SetNextItemWidth(90);
+  ImGui::InputInt("texels", &f.texels, 8);
+  f.texels = std::clamp(f.texels, 1, 4096);
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(90);
+  ImGui::InputText("directions", &f.directions);
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(70);
+  ImGui::InputInt("spp", &f.spp, 1);
+  f.spp = std::clamp(f.spp, 1, 16);
+  ImGui::SetNextItemWidth(90);
+  if (ImGui::BeginCombo("codec", f.codec.c_str())) {
+    for (const char* c : {"nmf", "svd", "perview", "lpca"})
+      if (ImGui::Selectable(c, f.codec == c)) f.codec = c;
+    ImGui::EndCombo();
+  }
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(90);
+  ImGui::InputDouble("target ratio", &f.targetRatio, 10, 100, "%.0f");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(70);
+  ImGui::InputInt("threads", &f.threads);
+  f.threads = std::clamp(f.threads, 0, 256);
+  const std::string btf = f.output + ".btf", cbtf = f.output + ".cbtf";
+  const bool partial = fs::exists(btf + ".partial");
+  ImGui::TextDisabled("%s", app.simulationEstimate().c_str());
+  auto guarded = [&](const std::function<void()>& fn) {
+    try {
+      fn();
+    } catch (const std::exception& e) {
+      app.message(e.what(), true);
+    }
+  };
+  if (ImGui::Button(partial && f.resume ? "Resume simulation" : "Simulate"))
+    guarded([&] { app.startSimulation(btf, false); });
+  ImGui::SameLine();
+  if (ImGui::Button("Simulate + compress")) guarded([&] { app.startSimulation(btf, true); });
+  ImGui::SameLine();
+  if (ImGui::Button("Compress")) guarded([&] { app.startCompression(btf, cbtf); });
+  ImGui::SameLine();
+  if (ImGui::Button("Study")) guarded([&] { app.startStudy(f.output + "-study"); });
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(90);
+  if (ImGui::BeginCombo("##fmt", f.exportFormat.c_str())) {
+    for (const char* c : {"ubo2003", "ubo2014", "merl"})
+      if (ImGui::Selectable(c, f.exportFormat == c)) f.exportFormat = c;
+    ImGui::EndCombo();
+  }
+  ImGui::SameLine();
+  if (ImGui::Button("Export"))
+    guarded([&] {
+      const std::string out = f.exportFormat == "ubo2003"   ? f.output + "-ubo2003"
+                              : f.exportFormat == "ubo2014" ? f.output + ".btf.dfmf"
+                                                            : f.output + ".binary";
+      app.startExport(fs::exists(cbtf) ? cbtf : btf, f.exportFormat, out);
+    });
+  if (partial) {
+    ImGui::Checkbox("resume the interrupted run", &f.resume);
+    ImGui::SameLine();
+    ImGui::TextDisabled("(%s.partial exists)", btf.c_str());
+  }
+  ImGui::Separator();
+  if (ImGui::SmallButton("clear finished")) app.jobs.clearFinished();
+  for (const auto& j : app.jobs.jobs()) {
+    ImGui::PushID(j->id);
+    const JobStatus st = j->status.load();
+    ImGui::Text("#%d %s", j->id, j->title.c_str());
+    ImGui::SameLine();
+    ImVec4 col = st == JobStatus::Failed      ? ImVec4(1, 0.4f, 0.3f, 1)
+                 : st == JobStatus::Done      ? ImVec4(0.4f, 1, 0.5f, 1)
+                 : st == JobStatus::Cancelled ? ImVec4(0.8f, 0.8f, 0.5f, 1)
+                                              : ImVec4(0.7f, 0.8f, 1, 1);
+    ImGui::TextColored(col, "[%s]", jobStatusName(st));
+    if (st == JobStatus::Running || st == JobStatus::Queued) {
+      const std::string stage = j->progress.currentStage();
+      const double eta = j->etaSeconds();
+      char overlay[160];
+      std::snprintf(overlay, sizeof overlay, "%s %.0f %%%s%s", stage.c_str(), 100 * j->fraction(),
+                    eta >= 0 ? " — ETA " : "", eta >= 0 ? formatSeconds(eta).c_str() : "");
+      ImGui::ProgressBar(float(j->fraction()), ImVec2(-150, 0), overlay);
+      ImGui::SameLine();
+      if (ImGui::SmallButton("cancel")) app.jobs.cancel(j->id);
+      if (j->kind == "simulate") {
+        ImGui::SameLine();
+        if (ImGui::SmallButton("stop")) {
+          j->keepPartial = true;
+          app.jobs.cancel(j->id);
+        }
+      }
+      ImGui::TextDisabled("elapsed %s, process memory %s — %s",
+                          formatSeconds(j->elapsedSeconds()).c_str(),
+                          formatBytes(double(currentRssBytes())).c_str(), j->estimate.c_str());
+    } else {
+      ImGui::PushTextWrapPos(0);
+      ImGui::TextDisabled("%s (%s, peak memory %s)", j->message.c_str(),
+                          formatSeconds(j->elapsedSeconds()).c_str(),
+                          formatBytes(double(j->peakRss.load())).c_str());
+      ImGui::PopTextWrapPos();
+    }
+    ImGui::PopID();
+  }
+  ImGui::End();
+}
+
+}  // namespace btf::ui

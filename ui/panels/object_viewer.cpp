@@ -1,0 +1,247 @@
+// The object viewer: the compressed BTF mapped on objects and decoded on the GPU by the GLSL in
+// shaders/ (btf_decode.glsl: texture-buffer arrays, direction interpolation, bilinear texels),
+// with per-pixel tangent frames, light and orbit-camera control, exposure and tone mapping.
+// checkGlsl() renders the same decoder into a float framebuffer for comparison with the CPU.
+#include "../app.h"
+#include "../objects.h"
+
+#include <btf/core/error.h>
+#include <btf/core/rng.h>
+#include <btf/directions/direction_set.h>
+
+#include <glm/glm.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <imgui.h>
+
+#include <chrono>
+#include <cmath>
+
+namespace btf::ui {
+
+using nlohmann::json;
+
+namespace {
+
+std::string decoderFragment(const std::string& body) {
+  return "#version 330 core\n" + shaderSource("btf_decode.glsl") + "\n" + shaderSource(body);
+}
+
+// Uploads the compressed arrays as texture buffers and sets the decoder's uniforms.
+void bindDecoder(App& app, const gl::Program& prog) {
+  ObjectState& o = app.obj;
+  const CompressedBtf& c = *app.insp.cbtf;
+  if (o.bound != app.insp.compressed) {
+    o.buffers.clear();
+    auto add = [&](const std::string& name) {
+      auto b = std::make_unique<gl::TextureBuffer>();
+      if (c.hasArray(name)) {
+        const CArray& a = c.array(name);
+        b->set(a.data.data(), a.data.size(), a.type == ArrayType::F16);
+      } else {
+        const float zero = 0;
+        b->set(&zero, 1, false);
+      }
+      o.buffers.push_back(std::move(b));
+    };
+    for (int ch = 0; ch < 3; ++ch) {
+      if (c.codec == "nmf") {
+        for (const char* w : {"basis_view", "basis_light", "coef_view", "coef_light"})
+          add(channelArray(ch, w));
+      } else {
+        add(channelArray(ch, "basis"));
+        add(channelArray(ch, "coef"));
+        add("none");
+        add("none");
+      }
+    }
+    add("cluster");
+    o.bound = app.insp.compressed;
+  }
+  prog.use();
+  const char* names[3][4] = {{"u_a0", "u_b0", "u_c0buf", "u_d0"},
+                             {"u_a1", "u_b1", "u_c1buf", "u_d1"},
+                             {"u_a2", "u_b2", "u_c2buf", "u_d2"}};
+  for (int ch = 0; ch < 3; ++ch)
+    for (int k = 0; k < 4; ++k) prog.bindBuffer(names[ch][k], *o.buffers[size_t(ch * 4 + k)], ch * 4 + k);
+  prog.bindBuffer("u_cluster", *o.buffers[12], 12);
+  int c0[3] = {0, 0, 0}, c1[3] = {0, 0, 0}, k[3] = {0, 0, 0};
+  for (int ch = 0; ch < 3; ++ch) {
+    if (c.codec == "nmf") {
+      c0[ch] = int(c.array(channelArray(ch, "basis_view")).cols);
+      c1[ch] = int(c.array(channelArray(ch, "basis_light")).cols);
+      k[ch] = c0[ch] > 0 ? int(c.array(channelArray(ch, "coef_view")).cols / c0[ch]) : 0;
+    } else {
+      c0[ch] = int(c.array(channelArray(ch, "basis")).cols);
+    }
+  }
+  prog.setInts("u_c0", c0, 3);
+  prog.setInts("u_c1", c1, 3);
+  prog.setInts("u_k", k, 3);
+  const int codec = c.codec == "nmf" ? 0 : c.codec == "svd" ? 1 : c.codec == "perview" ? 2 : 3;
+  prog.set("u_codec", codec);
+  prog.set("u_ycc", c.colour == "ycc" ? 1 : 0);
+  prog.set("u_nu", c.info.nu);
+  prog.set("u_nv", c.info.nv);
+  prog.set("u_n", c.info.nDirs());
+  const DirectionSet set = DirectionSet::fromName(c.info.directionSet);
+  const auto& rings = set.rings();
+  if (rings.size() > 48) throw Error("the GLSL decoder handles at most 48 rings");
+  std::vector<float> th, ph;
+  std::vector<int> cnt, first;
+  for (const auto& r : rings) {
+    th.push_back(float(r.theta));
+    ph.push_back(float(r.phiOffset));
+    cnt.push_back(r.count);
+    first.push_back(r.first);
+  }
+  prog.set("u_nRings", int(rings.size()));
+  prog.setFloats("u_ringTheta", th.data(), int(th.size()));
+  prog.setFloats("u_ringPhi0", ph.data(), int(ph.size()));
+  prog.setInts("u_ringCount", cnt.data(), int(cnt.size()));
+  prog.setInts("u_ringFirst", first.data(), int(first.size()));
+}
+
+}  // namespace
+
+bool checkGlsl(App& app, int samples, double tolerance, json* result) {
+  if (!app.insp.cbtf || !app.insp.decoder) throw Error("check_glsl: open a compressed BTF first");
+  gl::Program prog;
+  prog.build("btf_check", shaderSource("fullscreen.vert"), decoderFragment("btf_check.frag"));
+  const BtfInfo& I = app.insp.cbtf->info;
+  // Queries: texel positions anywhere on the tile, directions up to 85°; a fixed seed.
+  std::vector<float> q;
+  Rng rng(12345);
+  for (int k = 0; k < samples; ++k) {
+    q.push_back(float(rng.uniform() * I.nu));
+    q.push_back(float(rng.uniform() * I.nv));
+    q.push_back(float(rng.uniform() * deg2rad(85.0)));
+    q.push_back(float(rng.uniform() * 2 * kPi));
+    q.push_back(float(rng.uniform() * deg2rad(85.0)));
+    q.push_back(float(rng.uniform() * 2 * kPi));
+  }
+  gl::TextureBuffer qb;
+  qb.set(q.data(), q.size(), false);
+  const int W = 64, H = (samples + W - 1) / W;
+  gl::Framebuffer fb;
+  fb.resize(W, H, true);
+  fb.begin(0, 0, 0, 0);
+  bindDecoder(app, prog);
+  prog.bindBuffer("u_queries", qb, 13);
+  prog.set("u_width", W);
+  gl::drawFullscreen();
+  const auto px = fb.readFloat();
+  gl::Framebuffer::end(app.width, app.height);
+  double maxAbs = 0, peak = 0, se = 0, ref2 = 0;
+  for (int k = 0; k < samples; ++k) {
+    const float* s = &q[size_t(k) * 6];
+    const auto cpu = app.insp.decoder->evaluateAt(s[0], s[1], s[2], s[3], s[4], s[5]);
+    for (int c = 0; c < 3; ++c) {
+      const double g = px[size_t(k) * 4 + size_t(c)], r = cpu[size_t(c)];
+      maxAbs = std::max(maxAbs, std::abs(g - r));
+      peak = std::max(peak, std::abs(r));
+      se += (g - r) * (g - r);
+      ref2 += r * r;
+    }
+  }
+  const double rel = peak > 0 ? maxAbs / peak : maxAbs;
+  *result = {{"samples", samples},  {"max_abs", maxAbs}, {"peak", peak},
+             {"max_rel_to_peak", rel}, {"rel_rmse", ref2 > 0 ? std::sqrt(se / ref2) : 0},
+             {"tolerance", tolerance}};
+  return rel <= tolerance;
+}
+
+void drawObjectViewer(App& app) {
+  ObjectState& o = app.obj;
+  if (!ImGui::Begin("Objects", &app.panels["Objects"])) {
+    ImGui::End();
+    return;
+  }
+  ImGui::SetNextItemWidth(110);
+  if (ImGui::BeginCombo("object", o.shape.c_str())) {
+    for (const auto& n : objectNames())
+      if (ImGui::Selectable(n.c_str(), n == o.shape)) o.shape = n;
+    ImGui::EndCombo();
+  }
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(90);
+  ImGui::SliderFloat("tiling", &o.tiling, 0.25f, 16, "%.2f", ImGuiSliderFlags_Logarithmic);
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(90);
+  ImGui::SliderFloat("exposure", &o.exposure, 0.05f, 20, "%.2f", ImGuiSliderFlags_Logarithmic);
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(90);
+  ImGui::Combo("tone map", &o.toneMap, "clamp\0Reinhard\0filmic\0");
+  ImGui::SetNextItemWidth(120);
+  ImGui::SliderFloat("light θ", &o.lightTheta, 0, 89);
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(120);
+  ImGui::SliderFloat("light φ", &o.lightPhi, -180, 180);
+  ImGui::SameLine();
+  ImGui::Checkbox("bilinear texels", &o.bilinear);
+  if (!app.insp.cbtf) {
+    ImGui::TextDisabled("Open a compressed BTF (Inspector, or Simulate + compress in Jobs).");
+    ImGui::End();
+    return;
+  }
+  try {
+    if (o.loadedShape != o.shape) {
+      const ObjectMesh m = makeObject(o.shape);
+      o.mesh.set(m.vertices, m.indices);
+      o.loadedShape = o.shape;
+      o.distance = 3.2f * m.radius;
+    }
+    if (!o.program.valid() && o.programError.empty())
+      o.program.build("btf_object", shaderSource("btf_object.vert"),
+                      decoderFragment("btf_object.frag"));
+  } catch (const std::exception& e) {
+    o.programError = e.what();
+  }
+  if (!o.programError.empty()) {
+    ImGui::TextColored(ImVec4(1, 0.4f, 0.3f, 1), "%s", o.programError.c_str());
+    ImGui::End();
+    return;
+  }
+  const ImVec2 avail = ImGui::GetContentRegionAvail();
+  const int w = std::max(64, int(avail.x)), h = std::max(64, int(avail.y - 4));
+  o.fb.resize(w, h, false);
+  const auto t0 = std::chrono::steady_clock::now();
+  const glm::vec3 eye(o.distance * std::cos(o.pitch) * std::cos(o.yaw),
+                      o.distance * std::cos(o.pitch) * std::sin(o.yaw), o.distance * std::sin(o.pitch));
+  const glm::mat4 proj = glm::perspective(glm::radians(35.0f), float(w) / float(h), 0.05f, 100.0f);
+  const glm::mat4 view = glm::lookAt(eye, glm::vec3(0), glm::vec3(0, 0, 1));
+  const glm::mat4 vp = proj * view, model(1.0f);
+  const float lt = glm::radians(o.lightTheta), lp = glm::radians(o.lightPhi);
+  o.fb.begin(0.08f, 0.08f, 0.1f, 1);
+  gl::begin3d();
+  try {
+    bindDecoder(app, o.program);
+    o.program.setMat4("u_viewProj", glm::value_ptr(vp));
+    o.program.setMat4("u_model", glm::value_ptr(model));
+    o.program.set("u_lightDir", std::sin(lt) * std::cos(lp + o.yaw), std::sin(lt) * std::sin(lp + o.yaw),
+                  std::cos(lt));
+    o.program.set("u_eye", eye.x, eye.y, eye.z);
+    o.program.set("u_tiling", o.tiling);
+    o.program.set("u_exposure", o.exposure);
+    o.program.set("u_toneMap", o.toneMap);
+    o.program.set("u_bilinear", o.bilinear ? 1 : 0);
+    o.mesh.draw();
+  } catch (const std::exception& e) {
+    o.programError = e.what();
+  }
+  gl::end3d();
+  gl::finish();
+  gl::Framebuffer::end(app.width, app.height);
+  o.frameMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  ImGui::Image(o.fb.imguiId(), ImVec2(float(w), float(h)), ImVec2(0, 1), ImVec2(1, 0));
+  if (ImGui::IsItemActive() && ImGui::IsMouseDragging(0)) {
+    const ImVec2 d = ImGui::GetIO().MouseDelta;
+    o.yaw -= d.x * 0.01f;
+    o.pitch = std::clamp(o.pitch + d.y * 0.01f, -1.4f, 1.4f);
+  }
+  if (ImGui::IsItemHovered() && ImGui::GetIO().MouseWheel != 0)
+    o.distance *= std::pow(0.9f, ImGui::GetIO().MouseWheel);
+  ImGui::End();
+}
+
+}  // namespace btf::ui
