@@ -70,7 +70,7 @@ void App::guardDiscard(std::function<void()> f) {
   confirmDiscard = true;
 }
 
-void App::setParam(const std::string& pointer, const nlohmann::json& value, bool merge) {
+void App::setParam(const std::string& pointer, const nlohmann::ordered_json& value, bool merge) {
   try {
     doc.set(pointer, value, "", merge);
     fieldErrors.erase(pointer);
@@ -147,7 +147,7 @@ void App::handleDrop() {
       } else if (ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl") {
         // A mesh becomes a new part on the first material.
         const std::string mat = doc.scene().materials.front().name;
-        doc.edit("add mesh " + fs::path(p).filename().string(), [&](nlohmann::json& j) {
+        doc.edit("add mesh " + fs::path(p).filename().string(), [&](nlohmann::ordered_json& j) {
           j["parts"].push_back({{"name", fs::path(p).stem().string()},
                                 {"type", "mesh"},
                                 {"material", mat},
@@ -157,7 +157,7 @@ void App::handleDrop() {
       } else if (ext == ".png" || ext == ".exr" || ext == ".jpg" || ext == ".tif" ||
                  ext == ".hdr") {
         const std::string mat = doc.scene().materials.front().name;
-        doc.edit("add height field " + fs::path(p).filename().string(), [&](nlohmann::json& j) {
+        doc.edit("add height field " + fs::path(p).filename().string(), [&](nlohmann::ordered_json& j) {
           j["parts"].push_back({{"name", fs::path(p).stem().string()},
                                 {"type", "heightfield"},
                                 {"material", mat},

@@ -166,7 +166,7 @@ class App {
   void saveScene(const std::string& path);
   /// Runs `f` now if the document is clean, else after the unsaved-changes prompt.
   void guardDiscard(std::function<void()> f);
-  void setParam(const std::string& pointer, const nlohmann::json& value, bool merge = false);
+  void setParam(const std::string& pointer, const nlohmann::ordered_json& value, bool merge = false);
   void undo();
   void redo();
   int startSimulation(const std::string& output, bool compressToo);

@@ -10,7 +10,7 @@
 
 namespace btf::ui {
 
-using Json = nlohmann::json;
+using Json = nlohmann::ordered_json;  // keeps the scene's key and material order
 
 namespace {
 constexpr size_t kMaxUndo = 1000;
@@ -100,7 +100,7 @@ void Document::commit(const std::string& label, Scene next, bool merge) {
     m_undo.push_back({label, m_json});
     if (m_undo.size() > kMaxUndo) m_undo.erase(m_undo.begin());
   }
-  m_mergeable = merge;
+  m_mergeable = true;  // the next drag step of the same label may merge into this one
   m_redo.clear();
   next.source = m_scene.source;
   next.baseDir = m_scene.baseDir;

@@ -32,12 +32,12 @@ class Document {
 
   /// Sets the value at a JSON pointer of the canonical scene ("/parts/1/height",
   /// "/materials/brick/diffuse", "/simulation/spp") and re-parses. Throws btf::Error.
-  void set(const std::string& pointer, const nlohmann::json& value, const std::string& label = "",
+  void set(const std::string& pointer, const nlohmann::ordered_json& value, const std::string& label = "",
            bool merge = false);
   /// Applies any change of the canonical JSON (add/remove/duplicate/reorder parts...).
-  void edit(const std::string& label, const std::function<void(nlohmann::json&)>& change);
+  void edit(const std::string& label, const std::function<void(nlohmann::ordered_json&)>& change);
   /// Value at a pointer of the canonical JSON (throws btf::Error when absent).
-  nlohmann::json get(const std::string& pointer) const;
+  nlohmann::ordered_json get(const std::string& pointer) const;
 
   bool canUndo() const { return !m_undo.empty(); }
   bool canRedo() const { return !m_redo.empty(); }

@@ -18,7 +18,10 @@
 namespace btf::ui {
 
 namespace fs = std::filesystem;
-using nlohmann::json;
+using json = nlohmann::json;
+using ojson = nlohmann::ordered_json;
+
+ojson ordered(const json& j) { return ojson::parse(j.dump()); }
 using Clock = std::chrono::steady_clock;
 
 bool checkGlsl(App& app, int samples, double tolerance, json* result);  // object_viewer.cpp
@@ -51,7 +54,7 @@ bool randomEdit(Document& doc, std::mt19937_64& rng) {
   else
     next = double(next) * f(rng);
   try {
-    doc.set(ptr, next);
+    doc.set(ptr, ordered(next));
     return true;
   } catch (const Error&) {
     return false;  // out of range: the engine refused it, the scene is unchanged
@@ -114,7 +117,7 @@ bool App::scriptStep() {
       if (a.contains("expect_error")) {
         const std::string before = doc.json();
         try {
-          setParam(ptr, a.at("value"));
+          setParam(ptr, ordered(a.at("value")));
         } catch (const Error& e) {
           if (std::string(e.what()).find(a["expect_error"].get<std::string>()) ==
               std::string::npos)
@@ -126,7 +129,7 @@ bool App::scriptStep() {
         }
         return fail("setting " + ptr + " was expected to fail");
       }
-      setParam(ptr, a.at("value"));
+      setParam(ptr, ordered(a.at("value")));
     } else if (a.contains("undo")) {
       for (int i = 0; i < a["undo"].get<int>(); ++i) undo();
     } else if (a.contains("redo")) {

@@ -12,7 +12,7 @@
 
 namespace btf::ui {
 
-using nlohmann::json;
+using json = nlohmann::ordered_json;
 namespace fs = std::filesystem;
 
 namespace {
