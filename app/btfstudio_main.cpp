@@ -1,10 +1,8 @@
 // btfstudio: the BTF Studio desktop app. Thin: parses the arguments and runs btf::ui::App.
+#include <btf/core/error.h>
 #include <ui/app.h>
 
-#include <btf/core/error.h>
-
 #include <CLI/CLI.hpp>
-
 #include <cstdio>
 
 int main(int argc, char** argv) {

@@ -110,8 +110,16 @@ vec3 decodeValue(int t, int o, int l) {
   return max(rgb, vec3(0.0));
 }
 
+vec3 decodeNmfTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO, float phiO);
+bool nmfFast();
+
 // aBRDF of texel t at any directions (radians): 4 × 4 interpolated values.
 vec3 decodeTexel(int t, float thetaI, float phiI, float thetaO, float phiO) {
+  if (nmfFast()) {
+    int tt[4] = int[4](t, t, t, t);
+    float tw[4] = float[4](1.0, 0.0, 0.0, 0.0);
+    return decodeNmfTexels(tt, tw, thetaI, phiI, thetaO, phiO);
+  }
   int li[4], vi[4];
   float lw[4], vw[4];
   interpolateDirs(thetaI, phiI, li, lw);
@@ -125,8 +133,73 @@ vec3 decodeTexel(int t, float thetaI, float phiI, float thetaO, float phiO) {
   return acc;
 }
 
+// nmf per texel: the K view factors at the 4 interpolation views and the K light factors at the
+// 4 lights are formed once (4·K·(Cv + Cl) products), then the 16 direction pairs cost K each —
+// instead of 16·K·(Cv + Cl). Each pair is converted to RGB and clamped before the weighted sum,
+// exactly as the CPU decoder does.
+#define MAX_K 16
+void nmfPairs(samplerBuffer bv, samplerBuffer bl, samplerBuffer cv, samplerBuffer cl, int Cv, int Cl,
+              int K, int t, int vi[4], float vw[4], int li[4], float lw[4], out float val[16]) {
+  float A[4 * MAX_K], B[4 * MAX_K];
+  for (int a = 0; a < 4; ++a)
+    for (int j = 0; j < K; ++j) {
+      float x = 0.0, y = 0.0;
+      if (vw[a] > 0.0)
+        for (int q = 0; q < Cv; ++q) x += fetch(bv, vi[a] * Cv + q) * fetch(cv, (t * K + j) * Cv + q);
+      if (lw[a] > 0.0)
+        for (int q = 0; q < Cl; ++q) y += fetch(bl, li[a] * Cl + q) * fetch(cl, (t * K + j) * Cl + q);
+      A[a * MAX_K + j] = x;
+      B[a * MAX_K + j] = y;
+    }
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) {
+      float x = 0.0;
+      for (int j = 0; j < K; ++j) x += A[a * MAX_K + j] * B[b * MAX_K + j];
+      val[a * 4 + b] = x;
+    }
+}
+bool nmfFast() { return u_codec == 0 && max(max(u_k[0], u_k[1]), u_k[2]) <= MAX_K; }
+vec3 decodeNmfTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO, float phiO) {
+  int li[4], vi[4];
+  float lw[4], vw[4];
+  interpolateDirs(thetaI, phiI, li, lw);
+  interpolateDirs(thetaO, phiO, vi, vw);
+  vec3 acc = vec3(0.0);
+  for (int k = 0; k < 4; ++k) {
+    if (tw[k] <= 0.0) continue;
+    float c0[16], c1[16], c2[16];
+    nmfPairs(u_a0, u_b0, u_c0buf, u_d0, u_c0[0], u_c1[0], u_k[0], tt[k], vi, vw, li, lw, c0);
+    nmfPairs(u_a1, u_b1, u_c1buf, u_d1, u_c0[1], u_c1[1], u_k[1], tt[k], vi, vw, li, lw, c1);
+    nmfPairs(u_a2, u_b2, u_c2buf, u_d2, u_c0[2], u_c1[2], u_k[2], tt[k], vi, vw, li, lw, c2);
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        float w = vw[a] * lw[b];
+        if (w <= 0.0) continue;
+        vec3 c = vec3(c0[a * 4 + b], c1[a * 4 + b], c2[a * 4 + b]);
+        vec3 rgb = u_ycc == 1 ? vec3(c.x + c.y, c.x - c.y - c.z, c.x + c.z) : c;
+        acc += tw[k] * w * max(rgb, vec3(0.0));
+      }
+  }
+  return acc;
+}
+
 // At a tile position (x, y) in texel units, bilinear between texel centres (periodic).
 vec3 decodeAt(float x, float y, float thetaI, float phiI, float thetaO, float phiO) {
+  if (nmfFast()) {
+    float fx = x - 0.5, fy = y - 0.5;
+    float x0 = floor(fx), y0 = floor(fy);
+    float ax = fx - x0, ay = fy - y0;
+    int tt[4];
+    float tw[4];
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i) {
+        int u = int(mod(x0 + float(i), float(u_nu)));
+        int v = int(mod(y0 + float(j), float(u_nv)));
+        tt[j * 2 + i] = u + u_nu * v;
+        tw[j * 2 + i] = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
+      }
+    return decodeNmfTexels(tt, tw, thetaI, phiI, thetaO, phiO);
+  }
   float fx = x - 0.5, fy = y - 0.5;
   float x0 = floor(fx), y0 = floor(fy);
   float ax = fx - x0, ay = fy - y0;

@@ -1,19 +1,18 @@
 // The studio's job launchers and inspector loaders: what the Jobs panel's buttons and the
 // script's actions call. Each job runs the same engine calls as the matching btfsim command.
-#include "app.h"
-
 #include <btf/compress/cbtf.h>
 #include <btf/compress/export.h>
 #include <btf/core/error.h>
 #include <btf/core/sysinfo.h>
 #include <btf/sim/simulator.h>
-
 #include <imgui.h>
 
 #include <filesystem>
-#include <future>
 #include <fstream>
+#include <future>
 #include <sstream>
+
+#include "app.h"
 
 namespace btf::ui {
 
@@ -43,8 +42,8 @@ std::string App::simulationEstimate() {
       m_estimate.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
     estimateCache = m_estimate.get();
   }
-  const std::string key = std::to_string(form.texels) + form.directions +
-                          std::to_string(form.spp) + std::to_string(doc.revision());
+  const std::string key = std::to_string(form.texels) + form.directions + std::to_string(form.spp) +
+                          std::to_string(doc.revision());
   if (key != estimateKey && !m_estimate.valid() && !ImGui::IsAnyItemActive()) {
     estimateKey = key;
     const Scene scene = doc.scene();
@@ -84,6 +83,7 @@ int App::startSimulation(const std::string& output, bool compressToo) {
     if (!fs::path(output).parent_path().empty())
       fs::create_directories(fs::path(output).parent_path());
     SimulationJob sim(scene, o);
+    sim.setCancel(&j.cancel);
     const SimEstimate est = sim.estimate(output);
     if (!est.refusal.empty()) throw Error("refusing to start: " + est.refusal);
     const SimReport r = sim.run(output, est, &j.cancel);
@@ -148,26 +148,26 @@ int App::startStudy(const std::string& dir) {
   job->output = dir;
   job->estimate = "one simulation per configuration, plus the path-traced reference";
   const Scene scene = doc.scene();
-  const int texels = std::min(form.texels, 16);
+  const int texels = std::min(form.texels, 8);
   const int threads = form.threads;
   job->run = [scene, dir, texels, threads](Job& j) {
     ThreadLimit limit(threads);
     StudyOptions so;
     so.nu = so.nv = texels;
+    // A quick sweep for the panel (minutes at most); btfsim study runs the full one.
     so.base.dirs = "8x16";
     so.dirs = {"4x8", "8x16"};
     so.spp = {1, 2};
     so.bounces = {1, 3};
-    so.referenceSamples = 64;
-    so.imageSpp = 2;
-    so.imagePaths = 2;
+    so.referenceSamples = 32;
+    so.imageSpp = 1;
+    so.imagePaths = 1;
     so.progress = false;
     so.cancel = &j.cancel;
     Study st = runStudy(scene, so);
     fs::create_directories(dir);
     writeStudy(st, dir);
-    return "wrote " + dir + "/study.csv (" + std::to_string(st.results.size()) +
-           " configurations)";
+    return "wrote " + dir + "/study.csv (" + std::to_string(st.results.size()) + " configurations)";
   };
   job->onDone = [this, dir](Job&) { loadStudy(dir); };
   message("queued study → " + dir);
@@ -212,8 +212,8 @@ void App::openCompressed(const std::string& path, const std::string& reference) 
   insp.view = insp.light = 0;
   std::ostringstream s;
   s << c->codec << " (" << c->colour << "), " << c->info.nu << "×" << c->info.nv << " texels, "
-    << c->info.nDirs() << " directions (" << c->info.directionSet << "), ratio 1:"
-    << int(c->ratio() + 0.5) << ", " << formatBytes(double(c->fileBytes()));
+    << c->info.nDirs() << " directions (" << c->info.directionSet
+    << "), ratio 1:" << int(c->ratio() + 0.5) << ", " << formatBytes(double(c->fileBytes()));
   insp.header = s.str();
   insp.reference = reference;
   insp.refDecoder.reset();
@@ -274,8 +274,8 @@ void App::loadStudy(const std::string& dir) {
       if (head[i] == n) return int(i);
     throw Error(dir + "/study.csv: no column '" + n + "'");
   };
-  const int cl = col("config"), cs = col("seconds"), ce = col("probe_rel_rmse"),
-            cp = col("pareto"), cd = col("dirs"), cq = col("spp");
+  const int cl = col("config"), cs = col("seconds"), ce = col("probe_rel_rmse"), cp = col("pareto"),
+            cd = col("dirs"), cq = col("spp");
   while (std::getline(f, line)) {
     std::vector<std::string> v;
     std::stringstream ss(line);

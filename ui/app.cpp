@@ -1,13 +1,12 @@
 #include "app.h"
 
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
 #include <btf/core/error.h>
 #include <btf/core/sysinfo.h>
 #include <btf/io/image_io.h>
 #include <btf/sim/simulator.h>
-
-#include <GLFW/glfw3.h>
-#include <backends/imgui_impl_glfw.h>
-#include <backends/imgui_impl_opengl3.h>
 #include <imgui.h>
 
 #include <algorithm>
@@ -33,7 +32,9 @@ App::App(AppOptions o) : opt(std::move(o)) {
   for (const char* p : {"Inspector", "Objects", "Study"}) panels[p] = false;  // opened on demand
 }
 
-App::~App() { jobs.cancelAll(); }
+App::~App() {
+  jobs.cancelAll();
+}
 
 void App::message(const std::string& text, bool error) {
   status = text;
@@ -95,7 +96,9 @@ void App::redo() {
   fieldErrors.clear();
 }
 
-void App::requestPreview() { pv.dirty = true; }
+void App::requestPreview() {
+  pv.dirty = true;
+}
 
 void App::saveScreenshot(const std::string& path) {
   auto px = gl::readBackBuffer(width, height);
@@ -157,12 +160,13 @@ void App::handleDrop() {
       } else if (ext == ".png" || ext == ".exr" || ext == ".jpg" || ext == ".tif" ||
                  ext == ".hdr") {
         const std::string mat = doc.scene().materials.front().name;
-        doc.edit("add height field " + fs::path(p).filename().string(), [&](nlohmann::ordered_json& j) {
-          j["parts"].push_back({{"name", fs::path(p).stem().string()},
-                                {"type", "heightfield"},
-                                {"material", mat},
-                                {"image", fs::absolute(p).string()}});
-        });
+        doc.edit("add height field " + fs::path(p).filename().string(),
+                 [&](nlohmann::ordered_json& j) {
+                   j["parts"].push_back({{"name", fs::path(p).stem().string()},
+                                         {"type", "heightfield"},
+                                         {"material", mat},
+                                         {"image", fs::absolute(p).string()}});
+                 });
         message("added height-field part from " + p);
       } else if (ext == ".cbtf") {
         openCompressed(p, "");
@@ -341,8 +345,8 @@ void App::loadFont() {
   // DejaVu Sans (fonts-dejavu-core) for θ, φ, ², ×, — and arrows; ImGui's built-in font is ASCII.
   const char* path = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
   if (!fs::exists(path)) return;
-  static const ImWchar ranges[] = {0x0020, 0x00FF, 0x0370, 0x03FF, 0x2000, 0x206F,
-                                   0x2070, 0x209F, 0x2190, 0x21FF, 0x2200, 0x22FF, 0};
+  static const ImWchar ranges[] = {0x0020, 0x00FF, 0x0370, 0x03FF, 0x2000, 0x206F, 0x2070,
+                                   0x209F, 0x2190, 0x21FF, 0x2200, 0x22FF, 0};
   ImGui::GetIO().Fonts->AddFontFromFileTTF(path, 14.0f, nullptr, ranges);
 }
 

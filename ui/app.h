@@ -2,23 +2,22 @@
 // (`btfstudio --script`). Panels live one per file in ui/panels/ and draw from this state; only
 // ui/gl/ calls GL.
 #pragma once
-#include "document.h"
-#include "gl/gl.h"
-#include "jobs.h"
-#include "preview.h"
-
 #include <btf/compress/compress.h>
 #include <btf/sim/study.h>
-
-#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <deque>
 #include <future>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
+
+#include "document.h"
+#include "gl/gl.h"
+#include "jobs.h"
+#include "preview.h"
 
 struct GLFWwindow;
 
@@ -82,7 +81,9 @@ struct ObjectState {
   std::string programError;
   std::vector<std::unique_ptr<gl::TextureBuffer>> buffers;  // bound arrays of the decoder
   std::string bound;                                        // path of the bound file
-  double frameMs = 0;                                       // GPU-inclusive time of the pass
+  double frameMs = 0;  // GPU-inclusive time of the last object pass (rendered on change only)
+  float renderScale = 0.5f;
+  std::string renderedKey;
 };
 
 struct TileViewState {
@@ -166,7 +167,8 @@ class App {
   void saveScene(const std::string& path);
   /// Runs `f` now if the document is clean, else after the unsaved-changes prompt.
   void guardDiscard(std::function<void()> f);
-  void setParam(const std::string& pointer, const nlohmann::ordered_json& value, bool merge = false);
+  void setParam(const std::string& pointer, const nlohmann::ordered_json& value,
+                bool merge = false);
   void undo();
   void redo();
   int startSimulation(const std::string& output, bool compressToo);

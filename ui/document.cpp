@@ -2,10 +2,9 @@
 
 #include <btf/core/error.h>
 
-#include <nlohmann/json.hpp>
-
 #include <fstream>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 namespace btf::ui {
@@ -23,9 +22,13 @@ const char* kDefaultScene = R"({
 })";
 }  // namespace
 
-Scene defaultScene() { return parseScene(kDefaultScene, "untitled", std::filesystem::current_path()); }
+Scene defaultScene() {
+  return parseScene(kDefaultScene, "untitled", std::filesystem::current_path());
+}
 
-Document::Document() { reset(defaultScene(), {}); }
+Document::Document() {
+  reset(defaultScene(), {});
+}
 
 void Document::reset(Scene scene, std::filesystem::path path) {
   m_scene = std::move(scene);
@@ -38,7 +41,9 @@ void Document::reset(Scene scene, std::filesystem::path path) {
   ++m_revision;
 }
 
-void Document::open(const std::filesystem::path& path) { reset(loadScene(path), path); }
+void Document::open(const std::filesystem::path& path) {
+  reset(loadScene(path), path);
+}
 
 void Document::save(const std::filesystem::path& path) {
   const std::filesystem::path tmp = path.string() + ".partial";
@@ -79,8 +84,8 @@ void Document::set(const std::string& pointer, const Json& value, const std::str
     if (!j.contains(p)) throw Error("scene has no parameter at '" + pointer + "'");
     j[p] = value;
   }
-  Scene next = parseScene(j.dump(), m_scene.source.empty() ? "scene" : m_scene.source,
-                          m_scene.baseDir);
+  Scene next =
+      parseScene(j.dump(), m_scene.source.empty() ? "scene" : m_scene.source, m_scene.baseDir);
   commit(label.empty() ? "set " + pointer : label, std::move(next), merge);
 }
 
@@ -88,8 +93,8 @@ void Document::edit(const std::string& label, const std::function<void(Json&)>& 
   Json j = Json::parse(m_json);
   change(j);
   // The engine's parser is the validator: ranges, types, unknown keys, missing materials.
-  Scene next = parseScene(j.dump(), m_scene.source.empty() ? "scene" : m_scene.source,
-                          m_scene.baseDir);
+  Scene next =
+      parseScene(j.dump(), m_scene.source.empty() ? "scene" : m_scene.source, m_scene.baseDir);
   commit(label, std::move(next));
 }
 

@@ -4,10 +4,9 @@
 #pragma once
 #include <btf/scene/scene.h>
 
-#include <nlohmann/json_fwd.hpp>
-
 #include <filesystem>
 #include <functional>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -32,8 +31,8 @@ class Document {
 
   /// Sets the value at a JSON pointer of the canonical scene ("/parts/1/height",
   /// "/materials/brick/diffuse", "/simulation/spp") and re-parses. Throws btf::Error.
-  void set(const std::string& pointer, const nlohmann::ordered_json& value, const std::string& label = "",
-           bool merge = false);
+  void set(const std::string& pointer, const nlohmann::ordered_json& value,
+           const std::string& label = "", bool merge = false);
   /// Applies any change of the canonical JSON (add/remove/duplicate/reorder parts...).
   void edit(const std::string& label, const std::function<void(nlohmann::ordered_json&)>& change);
   /// Value at a pointer of the canonical JSON (throws btf::Error when absent).

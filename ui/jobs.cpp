@@ -9,11 +9,16 @@ using Clock = std::chrono::steady_clock;
 
 const char* jobStatusName(JobStatus s) {
   switch (s) {
-    case JobStatus::Queued: return "queued";
-    case JobStatus::Running: return "running";
-    case JobStatus::Done: return "done";
-    case JobStatus::Failed: return "failed";
-    case JobStatus::Cancelled: return "cancelled";
+    case JobStatus::Queued:
+      return "queued";
+    case JobStatus::Running:
+      return "running";
+    case JobStatus::Done:
+      return "done";
+    case JobStatus::Failed:
+      return "failed";
+    case JobStatus::Cancelled:
+      return "cancelled";
   }
   return "?";
 }
@@ -43,7 +48,9 @@ double Job::etaSeconds() const {
   return el * (1 - f) / f;
 }
 
-JobQueue::JobQueue() { m_thread = std::thread([this] { worker(); }); }
+JobQueue::JobQueue() {
+  m_thread = std::thread([this] { worker(); });
+}
 
 JobQueue::~JobQueue() {
   {
@@ -170,8 +177,7 @@ void JobQueue::worker() {
     job->finished = Clock::now();
     job->status = end;
     std::lock_guard lock(m_mutex);
-    if (end == JobStatus::Done && job->onDone)
-      m_mainQueue.push_back([job] { job->onDone(*job); });
+    if (end == JobStatus::Done && job->onDone) m_mainQueue.push_back([job] { job->onDone(*job); });
     m_current = nullptr;
   }
 }

@@ -1,7 +1,6 @@
 #include "objects.h"
 
 #include <btf/core/error.h>
-
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
 #include <opensubdiv/far/topologyRefinerFactory.h>
@@ -151,7 +150,8 @@ ObjectMesh cage(const std::string& name, int level) {
 }  // namespace
 
 const std::vector<std::string>& objectNames() {
-  static const std::vector<std::string> n = {"plane", "sphere", "cylinder", "vase", "cushion", "chair"};
+  static const std::vector<std::string> n = {"plane", "sphere",  "cylinder",
+                                             "vase",  "cushion", "chair"};
   return n;
 }
 
@@ -179,7 +179,8 @@ ObjectMesh makeObject(const std::string& name, int level) {
     });
   for (const auto& n : objectNames())
     if (n == name) return cage(name, level);
-  throw Error("unknown object '" + name + "' (expected plane, sphere, cylinder, vase, cushion or chair)");
+  throw Error("unknown object '" + name +
+              "' (expected plane, sphere, cylinder, vase, cushion or chair)");
 }
 
 }  // namespace btf::ui

@@ -2,10 +2,10 @@
 // analytic plane, sphere and cylinder, and subdivision surfaces refined by OpenSubdiv
 // (Catmull-Clark) from the cages in resources/objects (vase, cushion, chair).
 #pragma once
-#include "gl/gl.h"
-
 #include <string>
 #include <vector>
+
+#include "gl/gl.h"
 
 namespace btf::ui {
 

@@ -43,7 +43,9 @@ std::string describePlan(const EffectPlan& p) {
 
 }  // namespace
 
-PreviewWorker::PreviewWorker() { m_thread = std::thread([this] { loop(); }); }
+PreviewWorker::PreviewWorker() {
+  m_thread = std::thread([this] { loop(); });
+}
 
 PreviewWorker::~PreviewWorker() {
   {
@@ -155,8 +157,7 @@ void PreviewWorker::runGeneration(const PreviewRequest& r, uint64_t gen,
   publish([&](PreviewResult& res) { res.plan = describePlan(plan); }, gen);
   const bool moreEffects = plan.interreflection || o.method == "pt";
   if (moreEffects && !image(r.size, true, "every effect of the plan", true)) return;
-  if (!moreEffects)
-    publish([&](PreviewResult& res) { res.imageFinal = true; }, gen);
+  if (!moreEffects) publish([&](PreviewResult& res) { res.imageFinal = true; }, gen);
 
   if (r.brdf) {
     const int G = std::max(4, r.brdfGrid);

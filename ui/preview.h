@@ -22,10 +22,10 @@ struct PreviewRequest {
   std::string sceneJson, source;
   std::filesystem::path baseDir;
   double thetaV = 0, phiV = 0, thetaL = 30, phiL = 0;  // degrees
-  int size = 64;                                        // texels per side of the image
-  int texelU = -1, texelV = -1;                         // texel of the matrix; -1: the centre
-  int brdfGrid = 25;                                    // hemisphere pixels per side
-  int brdfSamples = 16;                                 // tile samples per axis (btfsim brdf --spp)
+  int size = 64;                                       // texels per side of the image
+  int texelU = -1, texelV = -1;                        // texel of the matrix; -1: the centre
+  int brdfGrid = 25;                                   // hemisphere pixels per side
+  int brdfSamples = 16;                                // tile samples per axis (btfsim brdf --spp)
   bool brdf = true, matrix = true;
 };
 

@@ -1,12 +1,9 @@
 // `btfstudio --script FILE.json`: a list of UI actions run one per frame through the same code
 // paths as the menus and panels; the first failing action prints why and sets exit status 1.
 // Actions and their keys are documented in docs/studio.md.
-#include "app.h"
-
 #include <btf/core/error.h>
 #include <btf/core/rng.h>
 #include <btf/io/image_io.h>
-
 #include <imgui.h>
 
 #include <algorithm>
@@ -15,13 +12,17 @@
 #include <fstream>
 #include <random>
 
+#include "app.h"
+
 namespace btf::ui {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 using ojson = nlohmann::ordered_json;
 
-ojson ordered(const json& j) { return ojson::parse(j.dump()); }
+ojson ordered(const json& j) {
+  return ojson::parse(j.dump());
+}
 using Clock = std::chrono::steady_clock;
 
 bool checkGlsl(App& app, int samples, double tolerance, json* result);  // object_viewer.cpp
@@ -119,8 +120,7 @@ bool App::scriptStep() {
         try {
           setParam(ptr, ordered(a.at("value")));
         } catch (const Error& e) {
-          if (std::string(e.what()).find(a["expect_error"].get<std::string>()) ==
-              std::string::npos)
+          if (std::string(e.what()).find(a["expect_error"].get<std::string>()) == std::string::npos)
             return fail(std::string("error '") + e.what() + "' does not mention '" +
                         a["expect_error"].get<std::string>() + "'");
           if (doc.json() != before) return fail("a refused edit changed the scene");
@@ -162,15 +162,15 @@ bool App::scriptStep() {
       pv.texelV = a["texel"][1];
       requestPreview();
     } else if (a.contains("wait_preview")) {
-      waitFor([this] { return !pv.dirty && pv.result.generation == pv.generation &&
-                              pv.result.done; },
-              a["wait_preview"].get<double>(), "the preview");
+      waitFor(
+          [this] { return !pv.dirty && pv.result.generation == pv.generation && pv.result.done; },
+          a["wait_preview"].get<double>(), "the preview");
     } else if (a.contains("save_preview")) {
       const auto& r = pv.result;
       if (r.image.empty()) return fail("no preview image yet");
       writeRgbImage(a["save_preview"], r.nu, r.nv, r.image, 1.0f);
-      m_report["preview"] = {{"stage", r.stage}, {"size", r.nu},
-                             {"first_image_ms", pv.firstImageSeconds * 1e3}};
+      m_report["preview"] = {
+          {"stage", r.stage}, {"size", r.nu}, {"first_image_ms", pv.firstImageSeconds * 1e3}};
     } else if (a.contains("save_brdf")) {
       const auto& r = pv.result;
       if (r.brdfValues.empty()) return fail("no BRDF slice yet");
@@ -228,8 +228,8 @@ bool App::scriptStep() {
       const json& e = a["expect_job"];
       const std::string st = jobStatusName(j->status.load());
       if (e.contains("status") && e["status"] != st)
-        return fail("job " + j->title + " is " + st + ", expected " + e["status"].get<std::string>() +
-                    " (" + j->message + ")");
+        return fail("job " + j->title + " is " + st + ", expected " +
+                    e["status"].get<std::string>() + " (" + j->message + ")");
       if (e.contains("message") &&
           j->message.find(e["message"].get<std::string>()) == std::string::npos)
         return fail("job message '" + j->message + "' lacks '" + e["message"].get<std::string>() +
@@ -268,7 +268,8 @@ bool App::scriptStep() {
     } else if (a.contains("check_glsl")) {
       const json& c = a["check_glsl"];
       json result;
-      const bool ok = checkGlsl(*this, c.value("samples", 256), c.value("tolerance", 0.02), &result);
+      const bool ok =
+          checkGlsl(*this, c.value("samples", 256), c.value("tolerance", 0.02), &result);
       m_report["check_glsl"] = result;
       if (!ok) return fail("GLSL decoder differs from the CPU decoder: " + result.dump());
     } else if (a.contains("measure_frames")) {

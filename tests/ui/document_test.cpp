@@ -1,15 +1,13 @@
 // The editor's data model: every edit goes through the engine's parser, refused edits leave the
 // scene as it was, and undo/redo over long random sequences returns the same canonical JSON.
-#include "test_util.h"
-
+#include <btf/core/error.h>
+#include <gtest/gtest.h>
 #include <ui/document.h>
 
-#include <btf/core/error.h>
-
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
-
 #include <random>
+
+#include "test_util.h"
 
 using namespace btf;
 using namespace btf::ui;
@@ -58,8 +56,7 @@ TEST(Document, InvalidEditsNameThePathAndKeepTheScene) {
 TEST(Document, DragsMergeIntoOneUndoStep) {
   Document d = brick();
   const std::string original = d.json();
-  for (int k = 1; k <= 10; ++k)
-    d.set("/parts/0/height", 0.001 * k, "drag height", /*merge=*/k > 1);
+  for (int k = 1; k <= 10; ++k) d.set("/parts/0/height", 0.001 * k, "drag height", /*merge=*/k > 1);
   EXPECT_EQ(d.undoDepth(), 1u);
   d.undo();
   EXPECT_EQ(d.json(), original);
@@ -69,9 +66,9 @@ TEST(Document, LongRandomEditSequenceUndoesAndRedoesExactly) {
   Document d = brick();
   std::mt19937_64 rng(42);
   std::vector<std::string> states = {d.json()};
-  const char* ptrs[] = {"/parts/0/height", "/parts/1/center", "/parts/1/size",
-                        "/materials/brick/exponent", "/materials/mortar/albedo",
-                        "/parts/1/array/row_shift"};
+  const char* ptrs[] = {
+      "/parts/0/height",           "/parts/1/center",          "/parts/1/size",
+      "/materials/brick/exponent", "/materials/mortar/albedo", "/parts/1/array/row_shift"};
   std::uniform_real_distribution<double> f(0.05, 0.5);
   int accepted = 0;
   for (int i = 0; i < 300; ++i) {

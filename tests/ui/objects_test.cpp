@@ -1,10 +1,8 @@
 // The object viewer's meshes: analytic shapes and OpenSubdiv-refined cages are finite, indexed
 // in range, with unit normals that agree with the winding of most faces... and uv in range.
-#include <ui/objects.h>
-
 #include <btf/core/error.h>
-
 #include <gtest/gtest.h>
+#include <ui/objects.h>
 
 #include <cmath>
 

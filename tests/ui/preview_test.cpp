@@ -1,18 +1,16 @@
 // The live previews compute what the simulator stores: the preview image of a (view, light)
 // pair of the set equals `btfsim slice` of the simulated BTF, and the BRDF slice equals
 // `btfsim brdf --method direct` at the same directions; a flat Lambert tile previews as ρ/π.
-#include "test_util.h"
-
-#include <ui/preview.h>
-
 #include <btf/io/image_io.h>
-
 #include <gtest/gtest.h>
+#include <ui/preview.h>
 
 #include <chrono>
 #include <fstream>
 #include <sstream>
 #include <thread>
+
+#include "test_util.h"
 
 using namespace btf;
 using namespace btf::ui;
@@ -50,15 +48,15 @@ TEST(Preview, ImageEqualsBtfsimSliceOfTheSimulatedBtf) {
   const auto dir = tempDir("ui_preview_slice");
   const std::string scene = brickWithGrid(dir);
   std::string out;
-  ASSERT_EQ(runBtfsim("simulate " + (dir / "brick.json").string() + " --texels 16 --dirs 4x8 -q -o " +
-                          (dir / "b.btf").string(),
+  ASSERT_EQ(runBtfsim("simulate " + (dir / "brick.json").string() +
+                          " --texels 16 --dirs 4x8 -q -o " + (dir / "b.btf").string(),
                       &out),
             0)
       << out;
   // Grid 4x8 cell centres: θ = 11.25, 33.75, 56.25, 78.75; φ = 22.5 + 45 j.
   const std::string view = "33.75,67.5", light = "56.25,22.5";
-  ASSERT_EQ(runBtfsim("slice " + (dir / "b.btf").string() + " --view " + view + " --light " + light +
-                          " -o " + (dir / "slice.exr").string(),
+  ASSERT_EQ(runBtfsim("slice " + (dir / "b.btf").string() + " --view " + view + " --light " +
+                          light + " -o " + (dir / "slice.exr").string(),
                       &out),
             0)
       << out;
@@ -110,11 +108,12 @@ TEST(Preview, BrdfSliceEqualsBtfsimBrdfDirect) {
     std::ofstream f(dir / "pairs.csv");
     f << "theta_i,phi_i,theta_o,phi_o\n";
     f.precision(17);
-    for (const auto& p : res.brdfPairs) f << p[0] << "," << p[1] << "," << p[2] << "," << p[3] << "\n";
+    for (const auto& p : res.brdfPairs)
+      f << p[0] << "," << p[1] << "," << p[2] << "," << p[3] << "\n";
   }
   std::string out;
-  ASSERT_EQ(runBtfsim("brdf " + (dir / "brick.json").string() + " --method direct --spp 8 --pairs " +
-                          (dir / "pairs.csv").string(),
+  ASSERT_EQ(runBtfsim("brdf " + (dir / "brick.json").string() +
+                          " --method direct --spp 8 --pairs " + (dir / "pairs.csv").string(),
                       &out),
             0)
       << out;

@@ -1,11 +1,10 @@
 #define GL_GLEXT_PROTOTYPES 1
 #include "gl.h"
 
-#include <btf/compress/linalg.h>
-#include <btf/core/error.h>
-
 #include <GL/gl.h>
 #include <GL/glext.h>
+#include <btf/compress/linalg.h>
+#include <btf/core/error.h>
 
 #include <cstring>
 
@@ -122,11 +121,21 @@ void Program::build(const std::string& name, const std::string& vertex,
   m_id = p;
 }
 
-void Program::use() const { glUseProgram(m_id); }
-int Program::uniform(const char* name) const { return glGetUniformLocation(m_id, name); }
-void Program::set(const char* name, int v) const { glUniform1i(uniform(name), v); }
-void Program::set(const char* name, float v) const { glUniform1f(uniform(name), v); }
-void Program::set(const char* name, float x, float y) const { glUniform2f(uniform(name), x, y); }
+void Program::use() const {
+  glUseProgram(m_id);
+}
+int Program::uniform(const char* name) const {
+  return glGetUniformLocation(m_id, name);
+}
+void Program::set(const char* name, int v) const {
+  glUniform1i(uniform(name), v);
+}
+void Program::set(const char* name, float v) const {
+  glUniform1f(uniform(name), v);
+}
+void Program::set(const char* name, float x, float y) const {
+  glUniform2f(uniform(name), x, y);
+}
 void Program::set(const char* name, float x, float y, float z) const {
   glUniform3f(uniform(name), x, y, z);
 }
@@ -278,7 +287,9 @@ void drawFullscreen() {
   glBindVertexArray(0);
 }
 
-void finish() { glFinish(); }
+void finish() {
+  glFinish();
+}
 
 void begin3d() {
   glEnable(GL_DEPTH_TEST);
@@ -287,6 +298,8 @@ void begin3d() {
   glDisable(GL_SCISSOR_TEST);
 }
 
-void end3d() { glDisable(GL_DEPTH_TEST); }
+void end3d() {
+  glDisable(GL_DEPTH_TEST);
+}
 
 }  // namespace btf::ui::gl

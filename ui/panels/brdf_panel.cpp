@@ -1,15 +1,14 @@
 // Live BRDF slices for the chosen light: the aBRDF over view directions as a hemisphere image
 // with a colour bar (tile average, or the texel picked in the preview), in-plane and cross-plane
 // θ curves of the tile average, and the picked texel's whole lights × views matrix.
-#include "../app.h"
-#include "widgets.h"
-
 #include <btf/directions/direction_set.h>
-
 #include <imgui.h>
 
 #include <algorithm>
 #include <cmath>
+
+#include "../app.h"
+#include "widgets.h"
 
 namespace btf::ui {
 
@@ -47,9 +46,11 @@ void drawBrdfPanel(App& app) {
     return;
   }
   const PreviewResult& r = pv.result;
-  if (ImGui::RadioButton("tile average", pv.tileAverage)) pv.tileAverage = true, pv.brdfStamp = ~0ull;
+  if (ImGui::RadioButton("tile average", pv.tileAverage))
+    pv.tileAverage = true, pv.brdfStamp = ~0ull;
   ImGui::SameLine();
-  if (ImGui::RadioButton("picked texel", !pv.tileAverage)) pv.tileAverage = false, pv.brdfStamp = ~0ull;
+  if (ImGui::RadioButton("picked texel", !pv.tileAverage))
+    pv.tileAverage = false, pv.brdfStamp = ~0ull;
   ImGui::SameLine();
   if (ImGui::Checkbox("log scale", &pv.logScale)) pv.brdfStamp = ~0ull;
   ImGui::SameLine();
@@ -129,7 +130,8 @@ void drawBrdfPanel(App& app) {
     linePlot("##curves", r.curveTheta, {in, cross},
              {IM_COL32(255, 200, 60, 255), IM_COL32(80, 200, 255, 255)},
              {"in-plane (φ = φl, signed θo)", "cross-plane (φ = φl + 90°)"},
-             ImVec2(ImGui::GetContentRegionAvail().x, std::max(80.0f, ImGui::GetContentRegionAvail().y - 4)),
+             ImVec2(ImGui::GetContentRegionAvail().x,
+                    std::max(80.0f, ImGui::GetContentRegionAvail().y - 4)),
              pv.logScale);
   } else if (!r.error.empty()) {
     ImGui::TextColored(ImVec4(1, 0.4f, 0.3f, 1), "%s", r.error.c_str());

@@ -1,13 +1,13 @@
 // The compression inspector: ratio and error metrics per codec, per-texel and per-direction
 // error maps with colour bars, original vs reconstructed spatial slices with their difference,
 // and the worst texels and direction pairs (click one to show it).
-#include "../app.h"
-#include "widgets.h"
-
 #include <imgui.h>
 #include <imgui_stdlib.h>
 
 #include <algorithm>
+
+#include "../app.h"
+#include "widgets.h"
 
 namespace btf::ui {
 
@@ -61,7 +61,8 @@ void drawInspectorPanel(App& app) {
   }
   if (!s.codecs.empty() &&
       ImGui::BeginTable("codecs", 5, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit)) {
-    for (const char* h : {"codec", "ratio", "RMSE", "rel. RMSE", "PSNR"}) ImGui::TableSetupColumn(h);
+    for (const char* h : {"codec", "ratio", "RMSE", "rel. RMSE", "PSNR"})
+      ImGui::TableSetupColumn(h);
     ImGui::TableHeadersRow();
     for (const auto& r : s.codecs) {
       ImGui::TableNextRow();
@@ -95,20 +96,24 @@ void drawInspectorPanel(App& app) {
       float hi = 1e-9f;
       for (size_t t = 0; t < diff.size(); ++t) {
         double d = 0;
-        for (int c = 0; c < 3; ++c) d += std::abs(double(org[t * 3 + size_t(c)]) - rec[t * 3 + size_t(c)]);
+        for (int c = 0; c < 3; ++c)
+          d += std::abs(double(org[t * 3 + size_t(c)]) - rec[t * 3 + size_t(c)]);
         diff[t] = float(d / 3);
         hi = std::max(hi, diff[t]);
       }
-      s.difference.setRgba8(I.nu, I.nv, colourMapRgba8(diff, I.nu, I.nv, 0, hi, false, true).data());
+      s.difference.setRgba8(I.nu, I.nv,
+                            colourMapRgba8(diff, I.nu, I.nv, 0, hi, false, true).data());
     }
     if (s.haveReport) {
       const auto& r = s.report;
       const float th = *std::max_element(r.texelRmse.begin(), r.texelRmse.end());
-      s.texelMap.setRgba8(r.nu, r.nv,
-                          colourMapRgba8(r.texelRmse, r.nu, r.nv, 0, std::max(th, 1e-9f), false, true).data());
+      s.texelMap.setRgba8(
+          r.nu, r.nv,
+          colourMapRgba8(r.texelRmse, r.nu, r.nv, 0, std::max(th, 1e-9f), false, true).data());
       const float dh = *std::max_element(r.dirRmse.begin(), r.dirRmse.end());
-      s.dirMap.setRgba8(r.nDirs, r.nDirs,
-                        colourMapRgba8(r.dirRmse, r.nDirs, r.nDirs, 0, std::max(dh, 1e-9f), false, false).data());
+      s.dirMap.setRgba8(
+          r.nDirs, r.nDirs,
+          colourMapRgba8(r.dirRmse, r.nDirs, r.nDirs, 0, std::max(dh, 1e-9f), false, false).data());
     }
   }
   const float side = std::clamp((ImGui::GetContentRegionAvail().x - 40) / 3, 64.0f, 256.0f);
@@ -141,7 +146,8 @@ void drawInspectorPanel(App& app) {
     ImGui::TextUnformatted("worst texels");
     for (const auto& w : r.worstTexels) {
       char buf[96];
-      std::snprintf(buf, sizeof buf, "(%d, %d) RMSE %.4g", int(w.index % r.nu), int(w.index / r.nu), w.rmse);
+      std::snprintf(buf, sizeof buf, "(%d, %d) RMSE %.4g", int(w.index % r.nu), int(w.index / r.nu),
+                    w.rmse);
       if (ImGui::Selectable(buf)) {
         app.pv.texelU = int(w.index % r.nu) * app.pv.size / r.nu;
         app.pv.texelV = int(w.index / r.nu) * app.pv.size / r.nv;

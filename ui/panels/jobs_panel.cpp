@@ -1,13 +1,12 @@
 // Background jobs: the estimate before starting, then per job its stage, progress bar, ETA,
 // memory and cancel ("stop" keeps a simulation's partial file so it resumes next time).
-#include "../app.h"
-
 #include <btf/core/sysinfo.h>
-
 #include <imgui.h>
 #include <imgui_stdlib.h>
 
 #include <filesystem>
+
+#include "../app.h"
 
 namespace btf::ui {
 

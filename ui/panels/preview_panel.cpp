@@ -1,14 +1,13 @@
 // The live single-direction preview: the tile's texel image for one view and light direction,
 // rendered by the engine on the preview worker (quarter resolution, then full, then every effect
 // of the plan), restarted on every edit; directions picked on hemispheres or typed.
-#include "../app.h"
-#include "widgets.h"
-
 #include <btf/directions/direction_set.h>
-
 #include <imgui.h>
 
 #include <chrono>
+
+#include "../app.h"
+#include "widgets.h"
 
 namespace btf::ui {
 
@@ -39,7 +38,7 @@ void drawPreviewPanel(App& app) {
   }
   // Left: the image; right: the direction pickers.
   const float side = std::max(64.0f, std::min(ImGui::GetContentRegionAvail().x - 190,
-                                               ImGui::GetContentRegionAvail().y - 70));
+                                              ImGui::GetContentRegionAvail().y - 70));
   ImGui::BeginGroup();
   if (pv.image.id()) {
     const ImVec2 p0 = ImGui::GetCursorScreenPos();
@@ -57,7 +56,8 @@ void drawPreviewPanel(App& app) {
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("click: pick the texel of the BRDF views");
     // The picked texel.
     if (r.nu > 0) {
-      const float u = (float(r.texelU) + 0.5f) / float(pv.size), v = (float(r.texelV) + 0.5f) / float(pv.size);
+      const float u = (float(r.texelU) + 0.5f) / float(pv.size),
+                  v = (float(r.texelV) + 0.5f) / float(pv.size);
       ImGui::GetWindowDrawList()->AddCircle(ImVec2(p0.x + u * side, p0.y + (1 - v) * side), 4,
                                             IM_COL32(255, 80, 80, 255));
     }
@@ -90,12 +90,16 @@ void drawPreviewPanel(App& app) {
     app.requestPreview();
   }
   ImGui::SetNextItemWidth(100);
-  if (ImGui::SliderFloat("exposure", &pv.exposure, 0.05f, 20, "%.2f",
-                         ImGuiSliderFlags_Logarithmic))
+  if (ImGui::SliderFloat("exposure", &pv.exposure, 0.05f, 20, "%.2f", ImGuiSliderFlags_Logarithmic))
     pv.imageStamp = ~0ull;
   int idx = pv.size >= 128 ? 3 : pv.size >= 64 ? 2 : pv.size >= 32 ? 1 : 0;
   ImGui::SetNextItemWidth(100);
-  if (ImGui::Combo("texels", &idx, "16\0" "32\0" "64\0" "128\0", 4)) {
+  if (ImGui::Combo("texels", &idx,
+                   "16\0"
+                   "32\0"
+                   "64\0"
+                   "128\0",
+                   4)) {
     pv.size = 16 << idx;
     pv.texelU = pv.texelV = -1;
     app.requestPreview();

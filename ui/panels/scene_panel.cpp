@@ -1,14 +1,13 @@
 // The micro-structure editor: tile, materials and parts as a tree; every parameter edited
 // through the engine's one declaration (ParamDecl: type, range, doc); add, remove, duplicate,
 // reorder; errors from the engine shown next to the field while the scene stays as it was.
-#include "../app.h"
-
 #include <btf/scene/params.h>
-
 #include <imgui.h>
 #include <imgui_stdlib.h>
 
 #include <filesystem>
+
+#include "../app.h"
 
 namespace btf::ui {
 
@@ -194,8 +193,9 @@ void drawScenePanel(App& app) {
       const std::string base = "/parts/" + std::to_string(i);
       ImGui::PushID(int(i));
       ImGuiTreeNodeFlags fl = int(i) == app.tile.selectedPart ? ImGuiTreeNodeFlags_Selected : 0;
-      const bool open = ImGui::TreeNodeEx("part", fl, "%s (%s)", p["name"].get<std::string>().c_str(),
-                                          p["type"].get<std::string>().c_str());
+      const bool open =
+          ImGui::TreeNodeEx("part", fl, "%s (%s)", p["name"].get<std::string>().c_str(),
+                            p["type"].get<std::string>().c_str());
       if (ImGui::IsItemClicked()) app.tile.selectedPart = int(i);
       ImGui::SameLine();
       if (ImGui::SmallButton("up") && i > 0)
@@ -244,8 +244,8 @@ void drawScenePanel(App& app) {
       for (const auto& t : partTypes())
         if (ImGui::Selectable(t.name.c_str()))
           tryEdit(app, "add " + t.name, [&](json& s) {
-            json part = {{"name", t.name}, {"type", t.name},
-                         {"material", s["materials"].begin().key()}};
+            json part = {
+                {"name", t.name}, {"type", t.name}, {"material", s["materials"].begin().key()}};
             for (const auto& d : t.params)
               if (d.required && d.type == ParamType::Path) part[d.name] = "";
             s["parts"].push_back(part);
@@ -253,7 +253,8 @@ void drawScenePanel(App& app) {
       ImGui::EndCombo();
     }
   }
-  if (ImGui::CollapsingHeader("Simulation")) editDecl(app, "/simulation", simulationDecl(), j["simulation"]);
+  if (ImGui::CollapsingHeader("Simulation"))
+    editDecl(app, "/simulation", simulationDecl(), j["simulation"]);
   ImGui::End();
 }
 

@@ -1,14 +1,14 @@
 // Accuracy versus time for the current scene: the study's configurations as points (wall time
 // vs relative error, log-log), the Pareto front joined, the settings the Jobs form would use
 // marked; hover for the configuration.
-#include "../app.h"
-#include "widgets.h"
-
 #include <imgui.h>
 #include <imgui_stdlib.h>
 
 #include <algorithm>
 #include <cmath>
+
+#include "../app.h"
+#include "widgets.h"
 
 namespace btf::ui {
 
@@ -47,15 +47,20 @@ void drawStudyPanel(App& app) {
   t0 /= 1.3, t1 *= 1.3, e0 /= 1.3, e1 *= 1.3;
   ImDrawList* dl = ImGui::GetWindowDrawList();
   const ImVec2 p = ImGui::GetCursorScreenPos();
-  const ImVec2 size(ImGui::GetContentRegionAvail().x, std::max(120.0f, ImGui::GetContentRegionAvail().y - 4));
+  const ImVec2 size(ImGui::GetContentRegionAvail().x,
+                    std::max(120.0f, ImGui::GetContentRegionAvail().y - 4));
   ImGui::InvisibleButton("##plot", size);
   dl->AddRectFilled(p, ImVec2(p.x + size.x, p.y + size.y), IM_COL32(30, 30, 36, 255));
   const float padL = 56, padB = 20;
   auto X = [&](double v) {
-    return p.x + padL + float((std::log(std::max(v, t0)) - std::log(t0)) / (std::log(t1) - std::log(t0))) * (size.x - padL - 8);
+    return p.x + padL +
+           float((std::log(std::max(v, t0)) - std::log(t0)) / (std::log(t1) - std::log(t0))) *
+               (size.x - padL - 8);
   };
   auto Y = [&](double v) {
-    return p.y + 6 + float(1 - (std::log(std::max(v, e0)) - std::log(e0)) / (std::log(e1) - std::log(e0))) * (size.y - padB - 12);
+    return p.y + 6 +
+           float(1 - (std::log(std::max(v, e0)) - std::log(e0)) / (std::log(e1) - std::log(e0))) *
+               (size.y - padB - 12);
   };
   char buf[96];
   std::snprintf(buf, sizeof buf, "%.3g %%", 100 * e1);
@@ -65,14 +70,16 @@ void drawStudyPanel(App& app) {
   std::snprintf(buf, sizeof buf, "%.3g s", t0);
   dl->AddText(ImVec2(p.x + padL, p.y + size.y - padB + 2), IM_COL32(200, 200, 200, 255), buf);
   std::snprintf(buf, sizeof buf, "%.3g s  (wall time, log)", t1);
-  dl->AddText(ImVec2(p.x + size.x - 170, p.y + size.y - padB + 2), IM_COL32(200, 200, 200, 255), buf);
+  dl->AddText(ImVec2(p.x + size.x - 170, p.y + size.y - padB + 2), IM_COL32(200, 200, 200, 255),
+              buf);
   std::vector<const StudyState::Point*> front;
   for (const auto& q : s.points)
     if (q.pareto) front.push_back(&q);
   std::sort(front.begin(), front.end(), [](auto* a, auto* b) { return a->seconds < b->seconds; });
   for (size_t i = 1; i < front.size(); ++i)
     dl->AddLine(ImVec2(X(front[i - 1]->seconds), Y(front[i - 1]->error)),
-                ImVec2(X(front[i]->seconds), Y(front[i]->error)), IM_COL32(255, 200, 60, 200), 1.5f);
+                ImVec2(X(front[i]->seconds), Y(front[i]->error)), IM_COL32(255, 200, 60, 200),
+                1.5f);
   const ImVec2 m = ImGui::GetIO().MousePos;
   for (const auto& q : s.points) {
     const ImVec2 c(X(q.seconds), Y(q.error));

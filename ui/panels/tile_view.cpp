@@ -1,15 +1,15 @@
 // The 3D view of the tile: the micro-geometry rasterised in OpenGL, repeated 3 × 3 with the
 // central tile outlined and the preview's light direction drawn as a line from the tile centre;
 // orbit camera (drag, wheel); a click picks the part under the cursor (colour-coded ids).
-#include "../app.h"
-
 #include <btf/geometry/tile_builder.h>
 #include <btf/scene/material.h>
+#include <imgui.h>
 
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
-#include <imgui.h>
+
+#include "../app.h"
 
 namespace btf::ui {
 
@@ -53,8 +53,10 @@ void rebuild(App& app) {
   }
   // Outline of the central tile and the light direction.
   const float z = g.zmax + 0.002f;
-  std::vector<gl::Vertex> o = {{{0, 0, z}, {}, {}}, {{t.Lx, 0, z}, {}, {}},
-                               {{t.Lx, t.Ly, z}, {}, {}}, {{0, t.Ly, z}, {}, {}}};
+  std::vector<gl::Vertex> o = {{{0, 0, z}, {}, {}},
+                               {{t.Lx, 0, z}, {}, {}},
+                               {{t.Lx, t.Ly, z}, {}, {}},
+                               {{0, t.Ly, z}, {}, {}}};
   t.outline.set(o, {0, 1, 1, 2, 2, 3, 3, 0}, true);
 }
 
@@ -86,11 +88,12 @@ void drawTileView(App& app) {
   const float L = std::max(t.Lx, t.Ly);
   const glm::vec3 centre(t.Lx / 2, t.Ly / 2, (t.zmin + t.zmax) / 2);
   const float d = t.distance * L;
-  const glm::vec3 eye = centre + glm::vec3(d * std::cos(t.pitch) * std::cos(t.yaw),
-                                           d * std::cos(t.pitch) * std::sin(t.yaw),
-                                           d * std::sin(t.pitch));
-  const glm::mat4 vp = glm::perspective(glm::radians(40.0f), float(w) / float(h), 0.01f * L, 50 * L) *
-                       glm::lookAt(eye, centre, glm::vec3(0, 0, 1));
+  const glm::vec3 eye =
+      centre + glm::vec3(d * std::cos(t.pitch) * std::cos(t.yaw),
+                         d * std::cos(t.pitch) * std::sin(t.yaw), d * std::sin(t.pitch));
+  const glm::mat4 vp =
+      glm::perspective(glm::radians(40.0f), float(w) / float(h), 0.01f * L, 50 * L) *
+      glm::lookAt(eye, centre, glm::vec3(0, 0, 1));
   const double tl = deg2rad(app.pv.thetaL), pl = deg2rad(app.pv.phiL);
   const glm::vec3 ldir(float(std::sin(tl) * std::cos(pl)), float(std::sin(tl) * std::sin(pl)),
                        float(std::cos(tl)));

@@ -57,7 +57,8 @@ std::vector<uint8_t> colourMapRgba8(const std::vector<float>& v, int w, int h, f
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const float val = v[size_t(flipY ? h - 1 - y : y) * w + x];
-      const ImU32 c = val < 0 ? IM_COL32(0, 0, 0, 255) : colourMap(normalise(val, lo, hi, logScale));
+      const ImU32 c =
+          val < 0 ? IM_COL32(0, 0, 0, 255) : colourMap(normalise(val, lo, hi, logScale));
       const size_t d = (size_t(y) * w + x) * 4;
       out[d] = uint8_t(c & 255);
       out[d + 1] = uint8_t((c >> 8) & 255);
@@ -147,7 +148,8 @@ void linePlot(const char* id, const std::vector<double>& x,
   auto Y = [&](float v) {
     float t = 0;
     if (logScale)
-      t = (std::log10(std::max(v, lo)) - std::log10(lo)) / std::max(1e-6f, std::log10(hi) - std::log10(lo));
+      t = (std::log10(std::max(v, lo)) - std::log10(lo)) /
+          std::max(1e-6f, std::log10(hi) - std::log10(lo));
     else
       t = (v - lo) / (hi - lo);
     return p.y + 4 + (1 - t) * (size.y - padB - 8);

@@ -2,7 +2,6 @@
 // the hemisphere direction picker and line plots on ImGui draw lists (no ImPlot on Debian).
 #pragma once
 #include <btf/core/math.h>
-
 #include <imgui.h>
 
 #include <array>
@@ -31,6 +30,8 @@ void linePlot(const char* id, const std::vector<double>& x,
               const std::vector<std::vector<float>>& series, const std::vector<ImU32>& colours,
               const std::vector<std::string>& names, ImVec2 size, bool logScale);
 /// Luminance of an RGB value.
-inline float luminance(const Rgb& c) { return (c.x + c.y + c.z) / 3.0f; }
+inline float luminance(const Rgb& c) {
+  return (c.x + c.y + c.z) / 3.0f;
+}
 
 }  // namespace btf::ui

@@ -15,9 +15,9 @@ namespace btf {
 /// that thread publishes into it, whichever worker calls add().
 struct ProgressState {
   mutable std::mutex mutex;
-  std::string stage;                  // guarded by mutex
+  std::string stage;  // guarded by mutex
   std::atomic<int64_t> done{0}, total{1};
-  std::atomic<int> stages{0};         // reporters started so far
+  std::atomic<int> stages{0};                        // reporters started so far
   std::chrono::steady_clock::time_point stageStart;  // guarded by mutex
   std::string currentStage() const {
     std::lock_guard lock(mutex);

@@ -28,8 +28,12 @@ uint64_t statusKb(const char* key) {
 }
 }  // namespace
 
-uint64_t peakRssBytes() { return statusKb("VmHWM:"); }
-uint64_t currentRssBytes() { return statusKb("VmRSS:"); }
+uint64_t peakRssBytes() {
+  return statusKb("VmHWM:");
+}
+uint64_t currentRssBytes() {
+  return statusKb("VmRSS:");
+}
 
 uint64_t freeDiskBytes(const std::string& path) {
   namespace fs = std::filesystem;

@@ -247,12 +247,16 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
   };
   // 4a. Points enclosed in a solid (most of their rays meet back faces: the plane under a box)
   // are never seen; they are marked and left out of every search.
-  parallelForChunks(int64_t(m_points.size()), 16, [&](int64_t b, int64_t e) {
-    std::vector<HitRec> hits;
-    std::vector<DVec3> hitDirs;
-    for (int64_t i = b; i < e; ++i)
-      m_points[size_t(i)].enclosed = 2 * traceHits(i, hits, hitDirs) > dirsUsed;
-  });
+  parallelForChunks(
+      int64_t(m_points.size()), 16,
+      [&](int64_t b, int64_t e) {
+        std::vector<HitRec> hits;
+        std::vector<DVec3> hitDirs;
+        for (int64_t i = b; i < e; ++i)
+          m_points[size_t(i)].enclosed = 2 * traceHits(i, hits, hitDirs) > dirsUsed;
+      },
+      cancel);
+  if (cancel && cancel->cancelled()) return;
   // 4b. α and links.
   parallelForChunks(
       int64_t(m_points.size()), 16,

@@ -85,12 +85,17 @@ NetworkSettings SimulationJob::networkSettings() const {
   return n;
 }
 
+void SimulationJob::checkCancel() const {
+  if (m_cancel && m_cancel->cancelled()) throw Error("cancelled");
+}
+
 const EffectPlan& SimulationJob::plan() const {
   if (!m_plan) {
     if (m_opt.plan.interreflection != Toggle::Off) {
       m_network = std::make_unique<PointNetwork>();
       std::unique_ptr<ProgressReporter> pr;
-      m_network->build(*m_tracer, networkSettings(), nullptr);
+      m_network->build(*m_tracer, networkSettings(), nullptr, m_cancel);
+      checkCancel();
     }
     m_plan = std::make_unique<EffectPlan>(
         planEffects(*m_tracer, m_materials, m_dirs, m_network.get(), m_opt.plan));
@@ -221,6 +226,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   SimEstimate e;
   e.threads = activeThreads();
   const EffectPlan& pl = plan();
+  checkCancel();
   EffectPlan& plm = *m_plan;
   const bool pt = m_opt.method == "pt";
   const bool gi = !pt && pl.interreflection;
@@ -284,6 +290,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   std::vector<float> buf(size_t(nD) * 3);
   const int calls = std::min(64, nD * 4);
   auto timeKernel = [&](ShadowMode m, const NetworkGather* gather, bool pathTrace) {
+    checkCancel();
     DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps, {m, m_opt.shadowBias});
     TexelKernel k{*m_tracer, m_materials, m_dirs, maps, direct, gather, pathTrace, {}, 1, {}};
     k.ptPaths = 1;
@@ -317,6 +324,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
           },
           P, glossyGather(), nullptr, nullptr, nCal);
     }
+    checkCancel();
     const double perLight = (light.solveSeconds() - light.setupSeconds()) / nCal;
     NetworkGather gather(*m_network, light, m_geom, m_materials);
     const double withGather = timeKernel(mode, &gather, false);
@@ -594,8 +602,8 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
         pl->bounces, glossy, nullptr, cancel);
     gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
   }
-  TexelKernel kernel{*m_tracer, m_materials, pair, maps, direct, gather.get(), pt && indirect,
-                     {},         1,           {}};
+  TexelKernel kernel{*m_tracer,    m_materials,    pair, maps, direct,
+                     gather.get(), pt && indirect, {},   1,    {}};
   kernel.ptPaths = m_opt.ptPaths;
   kernel.pt.maxBounces = pl && pl->interreflection ? pl->bounces : 1;
   kernel.pt.seed = m_opt.seed;

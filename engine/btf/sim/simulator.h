@@ -84,6 +84,9 @@ class SimulationJob {
   const DirectionSet& directions() const { return m_dirs; }
   const std::vector<Material>& materials() const { return m_materials; }
   std::string sceneHash() const;
+  /// Cancellation of the set-up work (the point network, the planner's probes, the estimate's
+  /// calibration): each throws btf::Error("cancelled") once `cancel` is set. run() takes its own.
+  void setCancel(const CancelToken* cancel) { m_cancel = cancel; }
   /// The effect plan (computed on first use: builds the point network unless inter-reflection is
   /// forced off).
   const EffectPlan& plan() const;
@@ -136,6 +139,8 @@ class SimulationJob {
   std::vector<int64_t> m_trainTexels;
   TrainingSink m_trainSink;
   bool m_onlyTrainingTexels = false;
+  const CancelToken* m_cancel = nullptr;
+  void checkCancel() const;
 };
 
 }  // namespace btf
