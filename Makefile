@@ -5,7 +5,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps build demo test bench clean
+.PHONY: all deps build demo test bench clean studio screenshots
 
 all: build
 
@@ -20,6 +20,14 @@ build: deps $(BUILD_DIR)/build.ninja
 
 demo: build
 	@bash scripts/demo.sh $(BUILD_DIR)
+
+# The desktop app on the demo scene (needs a display; see docs/studio.md for headless use).
+studio: build
+	$(BUILD_DIR)/app/btfstudio resources/scenes/brick.json
+
+# The README's screenshots from a scripted session under Xvfb.
+screenshots: build
+	bash scripts/studio-screenshots.sh $(BUILD_DIR) docs/images
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)

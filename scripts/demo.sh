@@ -41,3 +41,12 @@ echo "== accuracy vs time (small study: 16x16 texels, against the path tracer)"
 echo
 echo "Outputs are in $(pwd)/out:"
 ls -1 out | sed 's/^/  out\//'
+echo
+echo "== the desktop app"
+if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ]; then
+  echo "Open it on this scene:  make studio   (or: $BUILD/app/btfstudio $SCENE)"
+else
+  echo "No display here: a scripted studio session under Xvfb writes its screenshots to out/studio/"
+  bash scripts/studio-screenshots.sh "$BUILD" out/studio
+  echo "On a machine with a display, open the app with:  make studio"
+fi
