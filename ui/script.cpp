@@ -163,7 +163,12 @@ bool App::scriptStep() {
       requestPreview();
     } else if (a.contains("wait_preview")) {
       waitFor(
-          [this] { return !pv.dirty && pv.result.generation == pv.generation && pv.result.done; },
+          [this] {
+            if (pv.dirty || pv.result.generation != pv.generation || !pv.result.done) return false;
+            m_report["preview_first_image_ms"].push_back(pv.firstImageSeconds * 1e3);
+            m_report["preview_all_stages_ms"].push_back(pv.result.imageSeconds * 1e3);
+            return true;
+          },
           a["wait_preview"].get<double>(), "the preview");
     } else if (a.contains("save_preview")) {
       const auto& r = pv.result;
@@ -254,6 +259,13 @@ bool App::scriptStep() {
       panels[p] = true;
       focusPanel = p;
       m_scriptWaitFrames = a.value("frames", 3);
+    } else if (a.contains("layout")) {
+      for (auto& [name, open] : panels) open = false;
+      for (const auto& n : a["layout"]) {
+        if (!panels.count(n.get<std::string>())) return fail("unknown panel " + n.dump());
+        panels[n.get<std::string>()] = true;
+      }
+      m_scriptWaitFrames = 3;
     } else if (a.contains("object")) {
       obj.shape = a["object"];
       m_scriptWaitFrames = 2;

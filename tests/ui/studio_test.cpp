@@ -155,6 +155,7 @@ TEST(Studio, CancelStopsWithinASecondLeavesNoPartialAndJobErrorsKeepTheScene) {
   const std::string out = (dir / "big.btf").string();
   json a = json::array();
   a.push_back({{"open", sceneFile("brick")}});
+  a.push_back({{"wait_preview", 120}});
   a.push_back({{"simulate", {{"output", out}, {"texels", 128}, {"directions", "bonn81"}}}});
   a.push_back({{"sleep", 1.5}});
   a.push_back({{"measure_frames", 2.0}});
