@@ -27,8 +27,13 @@ int runStudio(const json& script, const fs::path& dir, std::string* log,
   const std::string cmd = env +
                           " xvfb-run -a -s \"-screen 0 1280x800x24\" " BTF_STUDIO " --script " +
                           s.string() + " > " + l.string() + " 2>&1";
-  const int rc = std::system(cmd.c_str());
+  int rc = std::system(cmd.c_str());
   *log = readFile(l);
+  if (log->find("btfstudio:") == std::string::npos) {
+    // The app never started (xvfb-run could not bring up a server): one retry.
+    rc = std::system(cmd.c_str());
+    *log = readFile(l);
+  }
   return WIFEXITED(rc) ? WEXITSTATUS(rc) : 128;
 }
 
