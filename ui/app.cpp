@@ -8,6 +8,7 @@
 #include <btf/io/image_io.h>
 #include <btf/sim/simulator.h>
 #include <imgui.h>
+#include <imgui_stdlib.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -154,7 +155,7 @@ void App::handleDrop() {
           j["parts"].push_back({{"name", fs::path(p).stem().string()},
                                 {"type", "mesh"},
                                 {"material", mat},
-                                {"file", fs::absolute(p).string()}});
+                                {"path", fs::absolute(p).string()}});
         });
         message("added mesh part from " + p);
       } else if (ext == ".png" || ext == ".exr" || ext == ".jpg" || ext == ".tif" ||
@@ -217,14 +218,8 @@ void App::drawMenu() {
         message(e.what(), true);
       }
     }
-    if (ImGui::MenuItem("Save as out/<name>.json")) {
-      try {
-        fs::create_directories("out");
-        saveScene("out/" + doc.scene().name + ".json");
-      } catch (const std::exception& e) {
-        message(e.what(), true);
-      }
-    }
+    if (ImGui::MenuItem("Open…")) m_pathPopup = "Open scene";
+    if (ImGui::MenuItem("Save as…")) m_pathPopup = "Save scene as";
     ImGui::Separator();
     if (ImGui::MenuItem("Quit")) guardDiscard([this] { m_quit = true; });
     ImGui::EndMenu();
@@ -260,6 +255,48 @@ void App::drawStatusBar() {
   else
     ImGui::TextUnformatted(status.c_str());
   ImGui::End();
+}
+
+void App::drawPathPopup() {
+  if (!m_pathPopup.empty()) {
+    ImGui::OpenPopup(m_pathPopup.c_str());
+    m_pathTitle = m_pathPopup;
+    if (m_pathInput.empty())
+      m_pathInput = doc.path().empty() ? "out/" + doc.scene().name + ".json" : doc.path().string();
+    m_pathPopup.clear();
+  }
+  if (m_pathTitle.empty()) return;
+  if (ImGui::BeginPopupModal(m_pathTitle.c_str(), nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
+    ImGui::SetNextItemWidth(420);
+    const bool enter = ImGui::InputText("path", &m_pathInput, ImGuiInputTextFlags_EnterReturnsTrue);
+    if (ImGui::Button("OK") || enter) {
+      const std::string p = m_pathInput, title = m_pathTitle;
+      ImGui::CloseCurrentPopup();
+      m_pathTitle.clear();
+      if (title == "Open scene") {
+        guardDiscard([this, p] {
+          try {
+            openScene(p);
+          } catch (const std::exception&) {
+          }
+        });
+      } else {
+        try {
+          const fs::path parent = fs::absolute(p).parent_path();
+          fs::create_directories(parent);
+          saveScene(p);
+        } catch (const std::exception& e) {
+          message(e.what(), true);
+        }
+      }
+    }
+    ImGui::SameLine();
+    if (ImGui::Button("Cancel")) {
+      ImGui::CloseCurrentPopup();
+      m_pathTitle.clear();
+    }
+    ImGui::EndPopup();
+  }
 }
 
 void App::drawDiscardPrompt() {
@@ -338,6 +375,7 @@ void App::frame() {
   panel("Study", 0.4f, 0.2f, 0.5f, 0.6f, drawStudyPanel);
   focusPanel.clear();
   drawDiscardPrompt();
+  drawPathPopup();
   drawStatusBar();
 }
 

@@ -195,6 +195,8 @@ class App {
   void drawMenu();
   void drawStatusBar();
   void drawDiscardPrompt();
+  void drawPathPopup();
+  std::string m_pathPopup, m_pathTitle, m_pathInput;
   void handleShortcuts();
   void handleDrop();
   bool scriptStep();  // false when the script has ended

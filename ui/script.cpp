@@ -259,6 +259,13 @@ bool App::scriptStep() {
       panels[p] = true;
       focusPanel = p;
       m_scriptWaitFrames = a.value("frames", 3);
+    } else if (a.contains("drop")) {
+      for (const auto& p : a["drop"]) m_dropped.push_back(p.get<std::string>());
+      m_scriptWaitFrames = 2;
+    } else if (a.contains("expect_parts")) {
+      if (int(doc.scene().parts.size()) != a["expect_parts"].get<int>())
+        return fail("the scene has " + std::to_string(doc.scene().parts.size()) +
+                    " parts, expected " + a["expect_parts"].dump());
     } else if (a.contains("layout")) {
       for (auto& [name, open] : panels) open = false;
       for (const auto& n : a["layout"]) {

@@ -86,9 +86,18 @@ TEST(Studio, FlatLambertPreviewPixelIsTheAlbedo) {
                         {{"directions", {{"light", {50.0, 120.0}}, {"view", {20.0, 10.0}}}}},
                         {{"wait_preview", 60}},
                         {{"screenshot", (dir / "lambert.png").string()}},
+                        {{"drop", {sourceDir() + "/resources/meshes/pyramid.obj"}}},
+                        {{"expect_parts", 2}},
+                        {{"undo", 1}},
+                        {{"expect_parts", 1}},
+                        {{"drop", {sourceDir() + "/resources/scenes/sine.json"}}},
+                        {{"expect_parts", 1}},
+                        {{"save", (dir / "saved.json").string()}},
                         {{"report", (dir / "report.json").string()}}});
   std::string log;
   ASSERT_EQ(runStudio(a, dir, &log), 0) << log;
+  EXPECT_NE(readFile(dir / "saved.json").find("\"sine\""), std::string::npos)
+      << "the dropped scene was not opened";
   const json r = json::parse(readFile(dir / "report.json"));
   const auto rect = r.at("preview_rect");
   int w = 0, h = 0;
