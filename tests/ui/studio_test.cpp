@@ -20,21 +20,23 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// Runs the app under xvfb-run and returns the app's own exit status, printed by the shell inside
+// xvfb-run: xvfb-run's status can be its own (5 when removing its temporary folder races).
 int runStudio(const json& script, const fs::path& dir, std::string* log,
               const std::string& env = "") {
   const fs::path s = dir / "script.json", l = dir / "studio.log";
   std::ofstream(s) << script.dump(2);
-  const std::string cmd = env +
-                          " xvfb-run -a -s \"-screen 0 1280x800x24\" " BTF_STUDIO " --script " +
-                          s.string() + " > " + l.string() + " 2>&1";
-  int rc = std::system(cmd.c_str());
-  *log = readFile(l);
-  if (log->find("btfstudio:") == std::string::npos) {
-    // The app never started (xvfb-run could not bring up a server): one retry.
-    rc = std::system(cmd.c_str());
+  const std::string cmd =
+      env + " xvfb-run -a -s \"-screen 0 1280x800x24\" sh -c '" BTF_STUDIO " --script " +
+      s.string() + "; echo \"btfstudio-exit=$?\"' > " + l.string() + " 2>&1";
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    std::system(cmd.c_str());
     *log = readFile(l);
+    const auto k = log->rfind("btfstudio-exit=");
+    if (k != std::string::npos) return std::atoi(log->c_str() + k + 15);
+    // The app never ran (xvfb-run could not bring up a server): one retry.
   }
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : 128;
+  return 128;
 }
 
 // Not blank: the image has structure (a spread of values), not one flat colour.
