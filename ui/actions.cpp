@@ -230,8 +230,7 @@ void App::compareInspector() {
   job->title = "compare " + insp.compressed;
   // Decoders are read-only and thread-safe for reads; the job holds them through the app,
   // which keeps them until the comparison ends (the inspector waits for it).
-  const Decoder* ref = insp.refDecoder.get();
-  const Decoder* dec = insp.decoder.get();
+  const std::shared_ptr<const Decoder> ref = insp.refDecoder, dec = insp.decoder;
   auto result = std::make_shared<ErrorReport>();
   const int threads = form.threads;
   job->run = [ref, dec, result, threads](Job& j) {
@@ -251,6 +250,49 @@ void App::compareInspector() {
     insp.codecs.push_back(row);
   };
   insp.comparing = jobs.submit(std::move(job));
+}
+
+int App::startCodecSweep(const std::string& reference) {
+  if (reference.empty()) throw Error("the codec sweep needs a raw reference BTF");
+  std::shared_ptr<const Decoder> ref = openBtf(reference);
+  int last = 0;
+  for (const char* codec : {"nmf", "svd", "perview", "lpca"}) {
+    auto job = std::make_unique<Job>();
+    job->kind = "compress";
+    const std::string out =
+        fs::path(reference).replace_extension("").string() + "." + codec + ".cbtf";
+    job->title = std::string("compress + compare ") + codec + " → " + out;
+    job->output = out;
+    CodecSettings cs;
+    cs.codec = codec;
+    cs.targetRatio = form.targetRatio;
+    validate(cs);
+    const int threads = form.threads;
+    auto row = std::make_shared<InspectorState::Row>();
+    job->run = [reference, out, cs, threads, ref, row](Job& j) {
+      ThreadLimit limit(threads);
+      CompressReport rep;
+      const CompressedBtf c = compressStore(reference, cs, false, &j.cancel, &rep);
+      if (j.cancel.cancelled()) return std::string("cancelled");
+      writeCompressed(out, c);
+      const auto dec = makeDecoder(c);
+      const ErrorReport e = compareBtfs(*ref, *dec, false, 16, &j.cancel);
+      *row = {cs.codec, c.ratio(), e.rmse, e.relRmse, e.psnr};
+      std::ostringstream s;
+      s << cs.codec << ": 1:" << int(c.ratio() + 0.5) << ", relative RMSE " << 100 * e.relRmse
+        << " %";
+      return s.str();
+    };
+    job->cleanup = [out](Job&) { removePartial(out); };
+    job->onDone = [this, row](Job&) {
+      std::erase_if(insp.codecs,
+                    [&](const InspectorState::Row& r) { return r.codec == row->codec; });
+      insp.codecs.push_back(*row);
+    };
+    last = jobs.submit(std::move(job));
+  }
+  message("queued the four codecs at 1:" + std::to_string(int(form.targetRatio)));
+  return last;
 }
 
 void App::loadStudy(const std::string& dir) {

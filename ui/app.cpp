@@ -43,13 +43,48 @@ void App::message(const std::string& text, bool error) {
   std::fprintf(error ? stderr : stdout, "btfstudio: %s\n", text.c_str());
 }
 
+namespace {
+// Recent files live in $XDG_CONFIG_HOME/btfstudio/recent.txt (or ~/.config/...), one per line.
+fs::path recentFile() {
+  const char* x = std::getenv("XDG_CONFIG_HOME");
+  const char* h = std::getenv("HOME");
+  if (x && *x) return fs::path(x) / "btfstudio" / "recent.txt";
+  if (h && *h) return fs::path(h) / ".config" / "btfstudio" / "recent.txt";
+  return {};
+}
+}  // namespace
+
+void App::loadRecent() {
+  const fs::path f = recentFile();
+  std::ifstream in(f);
+  std::string line;
+  while (std::getline(in, line))
+    if (!line.empty() && recent.size() < 8) recent.push_back(line);
+}
+
+void App::saveRecent() const {
+  if (!m_script.is_null()) return;  // scripted sessions leave the user's settings alone
+  const fs::path f = recentFile();
+  if (f.empty()) return;
+  std::error_code ec;
+  fs::create_directories(f.parent_path(), ec);
+  const fs::path tmp = f.string() + ".partial";
+  {
+    std::ofstream out(tmp);
+    for (const auto& r : recent) out << r << "\n";
+  }
+  fs::rename(tmp, f, ec);
+}
+
 void App::openScene(const std::string& path) {
   try {
     doc.open(path);
     fieldErrors.clear();
-    std::erase(recent, path);
-    recent.insert(recent.begin(), path);
+    const std::string abs = fs::absolute(path).lexically_normal().string();
+    std::erase(recent, abs);
+    recent.insert(recent.begin(), abs);
     if (recent.size() > 8) recent.resize(8);
+    saveRecent();
     tile.selectedPart = -1;
     message("opened " + path);
   } catch (const std::exception& e) {
@@ -400,6 +435,7 @@ int App::run() {
     if (m_script.is_object() && m_script.contains("actions")) m_script = m_script["actions"];
     if (!m_script.is_array()) throw Error(opt.script + ": expected a list of actions");
   }
+  if (m_script.is_null()) loadRecent();
   if (!opt.scene.empty()) openScene(opt.scene);
   m_originalJson = doc.json();
 
@@ -428,6 +464,14 @@ int App::run() {
   glfwMakeContextCurrent(m_window);
   glfwSwapInterval(m_script.is_null() && opt.screenshot.empty() ? 1 : 0);
   glfwSetWindowUserPointer(m_window, this);
+  glfwSetWindowCloseCallback(m_window, [](GLFWwindow* w) {
+    // Closing the window with unsaved changes asks first, like File → Quit.
+    auto* app = static_cast<App*>(glfwGetWindowUserPointer(w));
+    if (app->doc.dirty() && app->m_script.is_null()) {
+      glfwSetWindowShouldClose(w, GLFW_FALSE);
+      app->guardDiscard([app] { app->m_quit = true; });
+    }
+  });
   glfwSetDropCallback(m_window, [](GLFWwindow* w, int n, const char** paths) {
     auto* app = static_cast<App*>(glfwGetWindowUserPointer(w));
     for (int i = 0; i < n; ++i) app->m_dropped.push_back(paths[i]);
@@ -444,8 +488,12 @@ int App::run() {
 
   int settled = 0;
   auto last = Clock::now();
+  std::string title;
   while (!glfwWindowShouldClose(m_window) && !m_quit) {
     glfwPollEvents();
+    const std::string t = "BTF Studio — " + doc.scene().name + (doc.dirty() ? " *" : "") +
+                          (doc.path().empty() ? "" : " (" + doc.path().string() + ")");
+    if (t != title) glfwSetWindowTitle(m_window, (title = t).c_str());
     glfwGetFramebufferSize(m_window, &width, &height);
     ImGui_ImplOpenGL3_NewFrame();
     ImGui_ImplGlfw_NewFrame();

@@ -51,7 +51,8 @@ struct PreviewState {
 struct InspectorState {
   std::string compressed, reference;  // .cbtf and the raw store it came from
   std::shared_ptr<CompressedBtf> cbtf;
-  std::unique_ptr<Decoder> decoder, refDecoder;
+  // Shared: a running comparison keeps the decoders it reads even if another file is opened.
+  std::shared_ptr<const Decoder> decoder, refDecoder;
   std::string header;  // codec, ratio, components (one paragraph)
   double ratio = 0;
   bool haveReport = false;
@@ -177,6 +178,9 @@ class App {
   int startExport(const std::string& input, const std::string& format, const std::string& output);
   void openCompressed(const std::string& path, const std::string& reference);
   void compareInspector();
+  /// Compresses the reference with every codec at the form's target ratio and compares each:
+  /// one row per codec in the inspector's table. Returns the last job id.
+  int startCodecSweep(const std::string& reference);
   void loadStudy(const std::string& dir);
   /// Estimate of a simulation of the current scene with the form's settings (one line).
   std::string simulationEstimate();
@@ -196,6 +200,8 @@ class App {
   void drawStatusBar();
   void drawDiscardPrompt();
   void drawPathPopup();
+  void loadRecent();
+  void saveRecent() const;
   std::string m_pathPopup, m_pathTitle, m_pathInput;
   void handleShortcuts();
   void handleDrop();

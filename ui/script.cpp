@@ -251,6 +251,16 @@ bool App::scriptStep() {
       compareInspector();
       waitFor([this] { return !jobs.busy() && insp.haveReport; }, a.value("wait", 120.0),
               "the comparison");
+    } else if (a.contains("codec_sweep")) {
+      m_lastJobId = startCodecSweep(a["codec_sweep"].get<std::string>());
+      if (a.value("wait", 0.0) > 0)
+        waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the codec sweep");
+    } else if (a.contains("expect_codec_rows")) {
+      if (int(insp.codecs.size()) != a["expect_codec_rows"].get<int>())
+        return fail("the inspector has " + std::to_string(insp.codecs.size()) + " codec rows");
+      for (const auto& r : insp.codecs)
+        if (!(r.ratio > 1) || !(r.relRmse >= 0) || !std::isfinite(r.psnr))
+          return fail("codec row " + r.codec + " has invalid metrics");
     } else if (a.contains("load_study")) {
       loadStudy(a["load_study"]);
     } else if (a.contains("panel")) {

@@ -131,6 +131,8 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   a.push_back({{"expect_job", {{"status", "done"}}}});
   a.push_back({{"open_compressed", out + ".cbtf"}, {"reference", out + ".btf"}});
   a.push_back({{"compare", true}, {"wait", 300}});
+  a.push_back({{"codec_sweep", out + ".btf"}, {"wait", 600}});
+  a.push_back({{"expect_codec_rows", 4}});
   a.push_back({{"panel", "Inspector"}});
   a.push_back({{"screenshot", (dir / "inspector.png").string()}});
   a.push_back({{"check_glsl", {{"samples", 512}, {"tolerance", 2e-3}}}});

@@ -58,6 +58,18 @@ void drawInspectorPanel(App& app) {
         app.message(e.what(), true);
       }
     }
+    ImGui::SameLine();
+    if (ImGui::Button("Every codec")) {
+      try {
+        app.startCodecSweep(s.reference);
+      } catch (const std::exception& e) {
+        app.message(e.what(), true);
+      }
+    }
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "compress the reference with nmf, svd, perview and lpca at the Jobs "
+          "form's target ratio and compare each");
   }
   if (!s.codecs.empty() &&
       ImGui::BeginTable("codecs", 5, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit)) {
