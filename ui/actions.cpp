@@ -107,6 +107,53 @@ int App::startSimulation(const std::string& output, bool compressToo) {
   return id;
 }
 
+int App::startStreamedSimulation(const std::string& output) {
+  auto job = std::make_unique<Job>();
+  job->kind = "simulate";
+  job->title = "simulate " + doc.scene().name + " → " + form.codec + " stream → " + output;
+  job->output = output;
+  job->estimate = simulationEstimate() + " (no raw file is written)";
+  const Scene scene = doc.scene();
+  const SimOptions o = formOptions(scene, form);
+  CodecSettings cs;
+  cs.codec = form.codec;
+  cs.targetRatio = form.targetRatio;
+  validate(cs);
+  const int threads = form.threads;
+  job->run = [scene, o, cs, output, threads](Job& j) {
+    // The same stream as `btfsim simulate --compress`: training texels first, then every chunk
+    // straight into the encoder.
+    ThreadLimit limit(threads);
+    if (!fs::path(output).parent_path().empty())
+      fs::create_directories(fs::path(output).parent_path());
+    SimulationJob sim(scene, o);
+    sim.setCancel(&j.cancel);
+    const SimEstimate est = sim.estimate("");
+    if (!est.refusal.empty()) throw Error("refusing to start: " + est.refusal);
+    auto enc = makeEncoder(cs, sim.storeInfo(est.chunkTexels));
+    sim.setTrainingTexels(enc->trainingTexels(), [&](const float* v) { enc->train(v); });
+    sim.setChunkSink([&](int, int64_t t0, int64_t t1, const float* v) { enc->add(t0, t1, v); });
+    const SimReport r = sim.run("", est, &j.cancel);
+    if (r.cancelled) return std::string("cancelled");
+    const CompressedBtf c = enc->finish();
+    writeCompressed(output, c);
+    std::ostringstream s;
+    s << "wrote " << output << ", ratio 1:" << int(c.ratio() + 0.5) << " in "
+      << formatSeconds(r.wallSeconds);
+    return s.str();
+  };
+  job->cleanup = [output](Job&) { removePartial(output); };
+  job->onDone = [this, output](Job&) {
+    try {
+      openCompressed(output, "");
+    } catch (const std::exception& e) {
+      message(e.what(), true);
+    }
+  };
+  message("queued streamed simulation → " + output);
+  return jobs.submit(std::move(job));
+}
+
 int App::startCompression(const std::string& input, const std::string& output) {
   auto job = std::make_unique<Job>();
   job->kind = "compress";

@@ -174,6 +174,8 @@ class App {
   void redo();
   int startSimulation(const std::string& output, bool compressToo);
   int startCompression(const std::string& input, const std::string& output);
+  /// Simulation streamed into the form's codec (no raw file), as `btfsim simulate --compress`.
+  int startStreamedSimulation(const std::string& output);
   int startStudy(const std::string& dir);
   int startExport(const std::string& input, const std::string& format, const std::string& output);
   void openCompressed(const std::string& path, const std::string& reference);

@@ -193,7 +193,9 @@ bool App::scriptStep() {
       form.spp = s.value("spp", form.spp);
       form.codec = s.value("codec", form.codec);
       form.resume = s.value("resume", true);
-      m_lastJobId = startSimulation(s.at("output"), s.value("compress", false));
+      m_lastJobId = s.value("stream", false)
+                        ? startStreamedSimulation(s.at("output"))
+                        : startSimulation(s.at("output"), s.value("compress", false));
       if (a.value("wait", 0.0) > 0)
         waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the simulation");
     } else if (a.contains("compress")) {

@@ -151,6 +151,16 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
        {"wait", 300}});
   a.push_back({{"expect_job", {{"status", "done"}}}});
   a.push_back({{"expect_exists", out + ".dfmf"}});
+  a.push_back({{"simulate",
+                {{"output", out + "-streamed.cbtf"},
+                 {"texels", 16},
+                 {"directions", "4x8"},
+                 {"stream", true},
+                 {"codec", "nmf"}}},
+               {"wait", 300}});
+  a.push_back({{"expect_job", {{"status", "done"}}}});
+  a.push_back({{"expect_exists", out + "-streamed.cbtf"}});
+  a.push_back({{"expect_missing", out + "-streamed.btf"}});
   for (const char* p : {"Scene", "Tile view", "Preview", "BRDF", "Jobs"})
     a.push_back({{"panel", p}});
   a.push_back({{"screenshot", (dir / "jobs.png").string()}});

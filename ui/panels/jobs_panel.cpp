@@ -57,6 +57,12 @@ void drawJobsPanel(App& app) {
     guarded([&] { app.startSimulation(btf, false); });
   ImGui::SameLine();
   if (ImGui::Button("Simulate + compress")) guarded([&] { app.startSimulation(btf, true); });
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("simulate to .btf, then compress it (the inspector can compare both)");
+  ImGui::SameLine();
+  if (ImGui::Button("Stream")) guarded([&] { app.startStreamedSimulation(cbtf); });
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("simulate straight into the codec: only the .cbtf is written");
   ImGui::SameLine();
   if (ImGui::Button("Compress")) guarded([&] { app.startCompression(btf, cbtf); });
   ImGui::SameLine();
