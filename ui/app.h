@@ -85,6 +85,9 @@ struct ObjectState {
   double frameMs = 0;  // GPU-inclusive time of the last object pass (rendered on change only)
   float renderScale = 0.5f;
   std::string renderedKey;
+  int bands = 16;  // bands of rows per pass, sized from the last pass to ~20 ms a frame
+  int band = -1;   // next band to render; -1 when the pass is complete
+  double passMs = 0;
 };
 
 struct TileViewState {

@@ -288,6 +288,13 @@ bool App::scriptStep() {
     } else if (a.contains("object")) {
       obj.shape = a["object"];
       m_scriptWaitFrames = 2;
+      // Then wait for the banded pass to complete (the panel must be open).
+      m_waitFor = [this] {
+        return !panels["Objects"] ||
+               (obj.band < 0 && !obj.renderedKey.empty() && obj.loadedShape == obj.shape);
+      };
+      m_waitDeadline = Clock::now() + std::chrono::seconds(300);
+      m_waitWhat = "the object pass";
     } else if (a.contains("frames")) {
       m_scriptWaitFrames = a["frames"];
     } else if (a.contains("sleep")) {

@@ -254,6 +254,20 @@ void Framebuffer::begin(float r, float g, float b, float a) const {
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
 }
 
+void Framebuffer::bind() const {
+  glBindFramebuffer(GL_FRAMEBUFFER, m_fbo);
+  glViewport(0, 0, m_w, m_h);
+}
+
+void scissor(int x, int y, int w, int h) {
+  glEnable(GL_SCISSOR_TEST);
+  glScissor(x, y, w, h);
+}
+
+void noScissor() {
+  glDisable(GL_SCISSOR_TEST);
+}
+
 void Framebuffer::end(int windowW, int windowH) {
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glViewport(0, 0, windowW, windowH);
@@ -296,6 +310,7 @@ void begin3d() {
   glDepthFunc(GL_LESS);
   glDisable(GL_BLEND);
   glDisable(GL_SCISSOR_TEST);
+  glDisable(GL_CULL_FACE);
 }
 
 void end3d() {

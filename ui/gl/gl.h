@@ -106,6 +106,8 @@ class Framebuffer {
   void resize(int w, int h, bool floating = false);
   /// Binds it, sets the viewport and clears to `clear`.
   void begin(float r, float g, float b, float a) const;
+  /// Binds it and sets the viewport, keeping its content.
+  void bind() const;
   static void end(int windowW, int windowH);
   unsigned colour() const { return m_colour; }
   int width() const { return m_w; }
@@ -127,6 +129,9 @@ std::vector<uint8_t> readBackBuffer(int w, int h);
 
 /// Draws the full-screen triangle (fullscreen.vert) with the bound program.
 void drawFullscreen();
+/// Restricts drawing to a rectangle (pixels from the bottom-left) / lifts it.
+void scissor(int x, int y, int w, int h);
+void noScissor();
 /// Waits for the GL pipeline (timing a pass on llvmpipe).
 void finish();
 

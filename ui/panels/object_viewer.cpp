@@ -217,19 +217,31 @@ void drawObjectViewer(App& app) {
   std::snprintf(key, sizeof key, "%s|%s|%d|%d|%.4f|%.4f|%.4f|%.3f|%.3f|%.4f|%.4f|%d|%d",
                 o.shape.c_str(), o.bound.c_str(), w, h, o.yaw, o.pitch, o.distance, o.lightTheta,
                 o.lightPhi, o.exposure, o.tiling, o.toneMap, o.bilinear ? 1 : 0);
-  const bool render = key != o.renderedKey || o.bound != app.insp.compressed;
-  const auto t0 = std::chrono::steady_clock::now();
-  const glm::vec3 eye(o.distance * std::cos(o.pitch) * std::cos(o.yaw),
-                      o.distance * std::cos(o.pitch) * std::sin(o.yaw),
-                      o.distance * std::sin(o.pitch));
-  const glm::mat4 proj = glm::perspective(glm::radians(35.0f), float(w) / float(h), 0.05f, 100.0f);
-  const glm::mat4 view = glm::lookAt(eye, glm::vec3(0), glm::vec3(0, 0, 1));
-  const glm::mat4 vp = proj * view, model(1.0f);
-  const float lt = glm::radians(o.lightTheta), lp = glm::radians(o.lightPhi);
-  if (render) {
+  // A changed view restarts the pass; the pass renders a band of rows per frame so the UI keeps
+  // its frame rate while llvmpipe decodes (the status bar shows the whole pass's time).
+  if (key != o.renderedKey || o.bound != app.insp.compressed) {
+    o.renderedKey = key;
+    o.band = 0;
+    if (o.frameMs > 0) o.bands = std::clamp(int(std::ceil(o.frameMs / 20.0)), 1, 64);
+    o.passMs = 0;
     o.fb.resize(w, h, false);
     o.fb.begin(0.08f, 0.08f, 0.1f, 1);
+    gl::Framebuffer::end(app.width, app.height);
+  }
+  if (o.band >= 0) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const glm::vec3 eye(o.distance * std::cos(o.pitch) * std::cos(o.yaw),
+                        o.distance * std::cos(o.pitch) * std::sin(o.yaw),
+                        o.distance * std::sin(o.pitch));
+    const glm::mat4 proj =
+        glm::perspective(glm::radians(35.0f), float(w) / float(h), 0.05f, 100.0f);
+    const glm::mat4 view = glm::lookAt(eye, glm::vec3(0), glm::vec3(0, 0, 1));
+    const glm::mat4 vp = proj * view, model(1.0f);
+    const float lt = glm::radians(o.lightTheta), lp = glm::radians(o.lightPhi);
+    const int y0 = h * o.band / o.bands, y1 = h * (o.band + 1) / o.bands;
+    o.fb.bind();
     gl::begin3d();
+    gl::scissor(0, y0, w, y1 - y0);
     try {
       bindDecoder(app, o.program);
       o.program.setMat4("u_viewProj", glm::value_ptr(vp));
@@ -245,13 +257,17 @@ void drawObjectViewer(App& app) {
     } catch (const std::exception& e) {
       o.programError = e.what();
     }
+    gl::noScissor();
     gl::end3d();
     gl::finish();
     gl::Framebuffer::end(app.width, app.height);
-    o.frameMs =
+    o.passMs +=
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    o.renderedKey = key;
-    app.report()["object_pass_ms"] = o.frameMs;
+    if (++o.band == o.bands) {
+      o.band = -1;
+      o.frameMs = o.passMs;
+      app.report()["object_pass_ms"] = o.frameMs;
+    }
   }
   ImGui::Image(o.fb.imguiId(), ImVec2(dispW, dispH), ImVec2(0, 1), ImVec2(1, 0));
   if (ImGui::IsItemActive() && ImGui::IsMouseDragging(0)) {
