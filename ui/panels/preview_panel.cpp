@@ -23,6 +23,27 @@ void updatePreview(App& app) {
   ++pv.stamp;
 }
 
+namespace {
+// A direction on a hemisphere picker plus typed degrees (θ clamped to [0, 89]; non-finite input
+// is ignored). Returns true when it changed.
+bool directionInput(const char* label, double* theta, double* phi, ImU32 colour) {
+  ImGui::PushID(label);
+  ImGui::TextUnformatted(label);
+  bool changed = hemispherePicker("##pick", theta, phi, 90, colour);
+  double v[2] = {*theta, *phi};
+  ImGui::SetNextItemWidth(170);
+  if (ImGui::InputScalarN("##typed", ImGuiDataType_Double, v, 2, nullptr, nullptr, "%.1f",
+                          ImGuiInputTextFlags_EnterReturnsTrue) &&
+      std::isfinite(v[0]) && std::isfinite(v[1])) {
+    *theta = std::clamp(v[0], 0.0, 89.0);
+    *phi = std::fmod(v[1], 360.0) + (v[1] < 0 ? 360.0 : 0.0);
+    changed = true;
+  }
+  ImGui::PopID();
+  return changed;
+}
+}  // namespace
+
 void drawPreviewPanel(App& app) {
   PreviewState& pv = app.pv;
   if (!ImGui::Begin("Preview", &app.panels["Preview"])) {
@@ -67,28 +88,10 @@ void drawPreviewPanel(App& app) {
   ImGui::EndGroup();
   ImGui::SameLine();
   ImGui::BeginGroup();
-  ImGui::TextUnformatted("view (θ, φ)");
-  if (hemispherePicker("##view", &pv.thetaV, &pv.phiV, 90, IM_COL32(80, 200, 255, 255)))
+  if (directionInput("view (θ, φ)", &pv.thetaV, &pv.phiV, IM_COL32(80, 200, 255, 255)))
     app.requestPreview();
-  double v2[2] = {pv.thetaV, pv.phiV};
-  ImGui::SetNextItemWidth(170);
-  if (ImGui::InputScalarN("##vt", ImGuiDataType_Double, v2, 2, nullptr, nullptr, "%.1f",
-                          ImGuiInputTextFlags_EnterReturnsTrue)) {
-    pv.thetaV = std::clamp(v2[0], 0.0, 89.0);
-    pv.phiV = v2[1];
+  if (directionInput("light (θ, φ)", &pv.thetaL, &pv.phiL, IM_COL32(255, 210, 60, 255)))
     app.requestPreview();
-  }
-  ImGui::TextUnformatted("light (θ, φ)");
-  if (hemispherePicker("##light", &pv.thetaL, &pv.phiL, 90, IM_COL32(255, 210, 60, 255)))
-    app.requestPreview();
-  double l2[2] = {pv.thetaL, pv.phiL};
-  ImGui::SetNextItemWidth(170);
-  if (ImGui::InputScalarN("##lt", ImGuiDataType_Double, l2, 2, nullptr, nullptr, "%.1f",
-                          ImGuiInputTextFlags_EnterReturnsTrue)) {
-    pv.thetaL = std::clamp(l2[0], 0.0, 89.0);
-    pv.phiL = l2[1];
-    app.requestPreview();
-  }
   ImGui::SetNextItemWidth(100);
   if (ImGui::SliderFloat("exposure", &pv.exposure, 0.05f, 20, "%.2f", ImGuiSliderFlags_Logarithmic))
     pv.imageStamp = ~0ull;
