@@ -127,6 +127,7 @@ void PreviewWorker::runGeneration(const PreviewRequest& r, uint64_t gen,
   // A direction set small enough for a live texel matrix.
   if (DirectionSet::fromName(o.directions).size() > 151) o.directions = "bonn81";
   SimulationJob job(scene, o);
+  job.setCancel(&cancel);  // a superseded request stops even inside the network build
   const double setupSeconds = since();
   if (std::getenv("BTF_PREVIEW_TIMING"))
     std::fprintf(stderr, "preview: parse + geometry + BVH %.1f ms\n", setupSeconds * 1e3);
