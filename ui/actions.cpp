@@ -1,9 +1,11 @@
 // The studio's job launchers and inspector loaders: what the Jobs panel's buttons and the
-// script's actions call. Each job runs the same engine calls as the matching btfsim command.
+// script's actions call. Each job is the engine's request for the matching btfsim command
+// (job_requests.h), run by the engine's use-case layer.
 #include <btf/compress/cbtf.h>
 #include <btf/compress/export.h>
 #include <btf/core/error.h>
 #include <btf/core/sysinfo.h>
+#include <btf/ops/ops.h>
 #include <btf/sim/simulator.h>
 #include <imgui.h>
 
@@ -20,18 +22,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-SimOptions formOptions(const Scene& scene, const JobForm& f) {
-  SimOptions o = optionsFromScene(scene);
-  o.nu = o.nv = f.texels;
-  o.directions = f.directions;
-  o.spp = f.spp;
-  o.progress = false;
-  return o;
-}
-
-void removePartial(const std::string& path) {
-  std::error_code ec;
-  fs::remove(path + ".partial", ec);
+std::string docPath(const Document& doc) {
+  return doc.path().empty() ? std::string("(unsaved scene)") : doc.path().string();
 }
 
 }  // namespace
@@ -42,23 +34,29 @@ std::string App::simulationEstimate() {
       m_estimate.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
     estimateCache = m_estimate.get();
   }
-  const std::string key = std::to_string(form.texels) + form.directions + std::to_string(form.spp) +
-                          std::to_string(doc.revision());
+  const std::string out = form.output + ".btf";
+  const ops::Request req = simulateRequest(form, docPath(doc), out, "");
+  const std::string key = req.toJson() + std::to_string(doc.revision());
   if (key != estimateKey && !m_estimate.valid() && !ImGui::IsAnyItemActive()) {
     estimateKey = key;
     const Scene scene = doc.scene();
-    const SimOptions o = formOptions(scene, form);
-    const std::string out = form.output + ".btf";
-    m_estimate = std::async(std::launch::async, [scene, o, out]() -> std::string {
+    const int threads = form.threads;
+    m_estimate = std::async(std::launch::async, [scene, req, out, threads]() -> std::string {
       try {
-        SimulationJob job(scene, o);
-        const SimEstimate e = job.estimate(out);
-        std::ostringstream s;
-        s << "estimate: " << formatSeconds(e.seconds) << " on " << e.threads
-          << " thread(s), memory " << formatBytes(double(e.memoryBytes)) << ", disk "
-          << formatBytes(double(e.diskBytes));
-        if (!e.refusal.empty()) s << " — refused: " << e.refusal;
-        return s.str();
+        std::string s;
+        withThreads(threads, [&] {
+          SimOptions o = ops::simOptions(scene, req);
+          o.progress = false;
+          SimulationJob job(scene, o);
+          const SimEstimate e = job.estimate(out);
+          std::ostringstream t;
+          t << "estimate: " << formatSeconds(e.seconds) << " on " << e.threads
+            << " thread(s), memory " << formatBytes(double(e.memoryBytes)) << ", disk "
+            << formatBytes(double(e.diskBytes));
+          if (!e.refusal.empty()) t << " — refused: " << e.refusal;
+          s = t.str();
+        });
+        return s;
       } catch (const std::exception& e) {
         return std::string("estimate failed: ") + e.what();
       }
@@ -69,35 +67,11 @@ std::string App::simulationEstimate() {
 }
 
 int App::startSimulation(const std::string& output, bool compressToo) {
-  auto job = std::make_unique<Job>();
-  job->kind = "simulate";
+  const ops::Request req = simulateRequest(form, docPath(doc), output, "");
+  auto job = opJob(req, std::make_shared<const Scene>(doc.scene()),
+                   [this, output](const ops::Report&) { insp.reference = output; });
   job->title = "simulate " + doc.scene().name + " → " + output;
-  job->output = output;
   job->estimate = simulationEstimate();
-  const Scene scene = doc.scene();  // a copy: the user keeps editing
-  SimOptions o = formOptions(scene, form);
-  o.resume = form.resume && fs::exists(output + ".partial");
-  const int threads = form.threads;
-  job->run = [scene, o, output, threads](Job& j) {
-    ThreadLimit limit(threads);
-    if (!fs::path(output).parent_path().empty())
-      fs::create_directories(fs::path(output).parent_path());
-    SimulationJob sim(scene, o);
-    sim.setCancel(&j.cancel);
-    const SimEstimate est = sim.estimate(output);
-    if (!est.refusal.empty()) throw Error("refusing to start: " + est.refusal);
-    const SimReport r = sim.run(output, est, &j.cancel);
-    if (r.cancelled) return std::string("cancelled");
-    std::ostringstream s;
-    s << "wrote " << output << " (" << formatBytes(double(r.outputBytes)) << ") in "
-      << formatSeconds(r.wallSeconds);
-    if (r.chunksResumed) s << ", " << r.chunksResumed << " chunk(s) resumed";
-    return s.str();
-  };
-  job->cleanup = [output](Job& j) {
-    if (!j.keepPartial) removePartial(output);
-  };
-  job->onDone = [this, output](Job&) { insp.reference = output; };
   const int id = jobs.submit(std::move(job));
   if (compressToo) {
     const std::string cb = fs::path(output).replace_extension(".cbtf").string();
@@ -108,142 +82,54 @@ int App::startSimulation(const std::string& output, bool compressToo) {
 }
 
 int App::startStreamedSimulation(const std::string& output) {
-  auto job = std::make_unique<Job>();
-  job->kind = "simulate";
+  // The same request as `btfsim simulate --compress CODEC`: the engine checks the encoder's
+  // memory against the budget and streams the chunks into it.
+  const ops::Request req = simulateRequest(form, docPath(doc), output, form.codec);
+  auto job =
+      opJob(req, std::make_shared<const Scene>(doc.scene()), [this, output](const ops::Report&) {
+        try {
+          openCompressed(output, "");
+        } catch (const std::exception& e) {
+          message(e.what(), true);
+        }
+      });
   job->title = "simulate " + doc.scene().name + " → " + form.codec + " stream → " + output;
-  job->output = output;
   job->estimate = simulationEstimate() + " (no raw file is written)";
-  const Scene scene = doc.scene();
-  const SimOptions o = formOptions(scene, form);
-  CodecSettings cs;
-  cs.codec = form.codec;
-  cs.targetRatio = form.targetRatio;
-  validate(cs);
-  const int threads = form.threads;
-  job->run = [scene, o, cs, output, threads](Job& j) {
-    // The same stream as `btfsim simulate --compress`: training texels first, then every chunk
-    // straight into the encoder.
-    ThreadLimit limit(threads);
-    if (!fs::path(output).parent_path().empty())
-      fs::create_directories(fs::path(output).parent_path());
-    SimulationJob sim(scene, o);
-    sim.setCancel(&j.cancel);
-    const SimEstimate est = sim.estimate("");
-    if (!est.refusal.empty()) throw Error("refusing to start: " + est.refusal);
-    auto enc = makeEncoder(cs, sim.storeInfo(est.chunkTexels));
-    sim.setTrainingTexels(enc->trainingTexels(), [&](const float* v) { enc->train(v); });
-    sim.setChunkSink([&](int, int64_t t0, int64_t t1, const float* v) { enc->add(t0, t1, v); });
-    const SimReport r = sim.run("", est, &j.cancel);
-    if (r.cancelled) return std::string("cancelled");
-    const CompressedBtf c = enc->finish();
-    writeCompressed(output, c);
-    std::ostringstream s;
-    s << "wrote " << output << ", ratio 1:" << int(c.ratio() + 0.5) << " in "
-      << formatSeconds(r.wallSeconds);
-    return s.str();
-  };
-  job->cleanup = [output](Job&) { removePartial(output); };
-  job->onDone = [this, output](Job&) {
-    try {
-      openCompressed(output, "");
-    } catch (const std::exception& e) {
-      message(e.what(), true);
-    }
-  };
   message("queued streamed simulation → " + output);
   return jobs.submit(std::move(job));
 }
 
 int App::startCompression(const std::string& input, const std::string& output) {
-  auto job = std::make_unique<Job>();
-  job->kind = "compress";
-  job->title = "compress " + input + " (" + form.codec + ") → " + output;
-  job->output = output;
-  CodecSettings cs;
-  cs.codec = form.codec;
-  cs.targetRatio = form.targetRatio;
-  validate(cs);
-  job->estimate = "memory: bounded by the codec's state (see docs/compression.md)";
-  const int threads = form.threads;
-  job->run = [input, output, cs, threads](Job& j) {
-    ThreadLimit limit(threads);
-    CompressReport rep;
-    const CompressedBtf c = compressStore(input, cs, false, &j.cancel, &rep);
-    if (j.cancel.cancelled()) return std::string("cancelled");
-    writeCompressed(output, c);
-    std::ostringstream s;
-    s << "wrote " << output << ", ratio 1:" << int(c.ratio() + 0.5) << " in "
-      << formatSeconds(rep.seconds);
-    return s.str();
-  };
-  job->cleanup = [output](Job&) { removePartial(output); };
-  job->onDone = [this, output, input](Job&) {
+  const ops::Request req = compressRequest(form, input, output, form.codec, false);
+  auto job = opJob(req, nullptr, [this, output, input](const ops::Report&) {
     try {
       openCompressed(output, input);
     } catch (const std::exception& e) {
       message(e.what(), true);
     }
-  };
+  });
+  job->title = "compress " + input + " (" + form.codec + ") → " + output;
+  job->estimate = "memory: bounded by the codec's state (see docs/compression.md)";
   message("queued compression → " + output);
   return jobs.submit(std::move(job));
 }
 
 int App::startStudy(const std::string& dir) {
-  auto job = std::make_unique<Job>();
-  job->kind = "study";
+  const SimOptions fo = ops::simOptions(doc.scene(), form.sim);
+  const ops::Request req = studyRequest(form, docPath(doc), dir, std::min(fo.nu, 8));
+  auto job = opJob(req, std::make_shared<const Scene>(doc.scene()),
+                   [this, dir](const ops::Report&) { loadStudy(dir); });
   job->title = "study " + doc.scene().name + " → " + dir;
-  job->output = dir;
   job->estimate = "one simulation per configuration, plus the path-traced reference";
-  const Scene scene = doc.scene();
-  const int texels = std::min(form.texels, 8);
-  const int threads = form.threads;
-  job->run = [scene, dir, texels, threads](Job& j) {
-    ThreadLimit limit(threads);
-    StudyOptions so;
-    so.nu = so.nv = texels;
-    // A quick sweep for the panel (minutes at most); btfsim study runs the full one.
-    so.base.dirs = "8x16";
-    so.dirs = {"4x8", "8x16"};
-    so.spp = {1, 2};
-    so.bounces = {1, 3};
-    so.referenceSamples = 32;
-    so.imageSpp = 1;
-    so.imagePaths = 1;
-    so.progress = false;
-    so.cancel = &j.cancel;
-    Study st = runStudy(scene, so);
-    fs::create_directories(dir);
-    writeStudy(st, dir);
-    return "wrote " + dir + "/study.csv (" + std::to_string(st.results.size()) + " configurations)";
-  };
-  job->onDone = [this, dir](Job&) { loadStudy(dir); };
   message("queued study → " + dir);
   return jobs.submit(std::move(job));
 }
 
 int App::startExport(const std::string& input, const std::string& format,
                      const std::string& output) {
-  if (format != "ubo2003" && format != "ubo2014" && format != "merl")
-    throw Error("unknown export format '" + format + "' (expected ubo2003, ubo2014 or merl)");
-  auto job = std::make_unique<Job>();
-  job->kind = "export";
+  const ops::Request req = exportRequest(form, input, format, output);  // validates the format
+  auto job = opJob(req, nullptr);
   job->title = "export " + input + " as " + format + " → " + output;
-  job->output = output;
-  const int threads = form.threads;
-  job->run = [input, format, output, threads](Job& j) {
-    ThreadLimit limit(threads);
-    const auto dec = openBtf(input);
-    if (format == "ubo2003") {
-      const int64_t n = exportUbo2003(*dec, output, false);
-      return "wrote " + std::to_string(n) + " images in " + output;
-    }
-    if (format == "ubo2014") {
-      exportUbo2014(*dec, output, 16, false);
-      return "wrote " + output;
-    }
-    exportMerl(*dec, output, 16, false);
-    return "wrote " + output;
-  };
   message("queued export → " + output);
   return jobs.submit(std::move(job));
 }
@@ -281,8 +167,7 @@ void App::compareInspector() {
   auto result = std::make_shared<ErrorReport>();
   const int threads = form.threads;
   job->run = [ref, dec, result, threads](Job& j) {
-    ThreadLimit limit(threads);
-    *result = compareBtfs(*ref, *dec, false, 16, &j.cancel);
+    withThreads(threads, [&] { *result = compareBtfs(*ref, *dec, false, 16, &j.cancel); });
     std::ostringstream s;
     s << "relative RMSE " << 100 * result->relRmse << " %, PSNR " << result->psnr << " dB";
     return s.str();
@@ -301,41 +186,21 @@ void App::compareInspector() {
 
 int App::startCodecSweep(const std::string& reference) {
   if (reference.empty()) throw Error("the codec sweep needs a raw reference BTF");
-  std::shared_ptr<const Decoder> ref = openBtf(reference);
   int last = 0;
-  for (const char* codec : {"nmf", "svd", "perview", "lpca"}) {
-    auto job = std::make_unique<Job>();
-    job->kind = "compress";
+  for (const std::string& codec : codecNames()) {
     const std::string out =
         fs::path(reference).replace_extension("").string() + "." + codec + ".cbtf";
-    job->title = std::string("compress + compare ") + codec + " → " + out;
-    job->output = out;
-    CodecSettings cs;
-    cs.codec = codec;
-    cs.targetRatio = form.targetRatio;
-    validate(cs);
-    const int threads = form.threads;
-    auto row = std::make_shared<InspectorState::Row>();
-    job->run = [reference, out, cs, threads, ref, row](Job& j) {
-      ThreadLimit limit(threads);
-      CompressReport rep;
-      const CompressedBtf c = compressStore(reference, cs, false, &j.cancel, &rep);
-      if (j.cancel.cancelled()) return std::string("cancelled");
-      writeCompressed(out, c);
-      const auto dec = makeDecoder(c);
-      const ErrorReport e = compareBtfs(*ref, *dec, false, 16, &j.cancel);
-      *row = {cs.codec, c.ratio(), e.rmse, e.relRmse, e.psnr};
-      std::ostringstream s;
-      s << cs.codec << ": 1:" << int(c.ratio() + 0.5) << ", relative RMSE " << 100 * e.relRmse
-        << " %";
-      return s.str();
-    };
-    job->cleanup = [out](Job&) { removePartial(out); };
-    job->onDone = [this, row](Job&) {
-      std::erase_if(insp.codecs,
-                    [&](const InspectorState::Row& r) { return r.codec == row->codec; });
-      insp.codecs.push_back(*row);
-    };
+    // `btfsim compress --compare`: the report carries the error against the reference.
+    const ops::Request req = compressRequest(form, reference, out, codec, true);
+    auto job = opJob(req, nullptr, [this, codec](const ops::Report& rep) {
+      const auto& e = rep.json.at("error");
+      const InspectorState::Row row{codec, rep.json.at("ratio").get<double>(),
+                                    e.at("rmse").get<double>(), e.at("relative_rmse").get<double>(),
+                                    e.at("psnr_db").get<double>()};
+      std::erase_if(insp.codecs, [&](const InspectorState::Row& r) { return r.codec == codec; });
+      insp.codecs.push_back(row);
+    });
+    job->title = "compress + compare " + codec + " → " + out;
     last = jobs.submit(std::move(job));
   }
   message("queued the four codecs at 1:" + std::to_string(int(form.targetRatio)));
@@ -376,8 +241,9 @@ void App::loadStudy(const std::string& dir) {
     study.points.push_back(
         {label, std::stod(v[size_t(cs)]), std::stod(v[size_t(ce)]), v[size_t(cp)] == "1"});
     // The configuration the job form would simulate with (directions and spp; network method).
-    if (study.chosen.empty() && v[size_t(cd)] == form.directions &&
-        v[size_t(cq)] == std::to_string(form.spp) && label.rfind("pt ", 0) != 0)
+    const SimOptions fo = ops::simOptions(doc.scene(), form.sim);
+    if (study.chosen.empty() && v[size_t(cd)] == fo.directions &&
+        v[size_t(cq)] == std::to_string(fo.spp) && label.rfind("pt ", 0) != 0)
       study.chosen = label;
   }
   message("loaded study " + dir + " (" + std::to_string(study.points.size()) + " configurations)");

@@ -16,6 +16,7 @@
 
 #include "document.h"
 #include "gl/gl.h"
+#include "job_requests.h"
 #include "jobs.h"
 #include "preview.h"
 
@@ -112,18 +113,6 @@ struct StudyState {
   std::vector<Point> points;
   std::string chosen;  // label of the configuration matching the scene's settings
   std::string error;
-};
-
-struct JobForm {
-  std::string output = "out/studio";
-  int texels = 32;
-  std::string directions = "bonn81";
-  int spp = 1;
-  std::string codec = "nmf";
-  double targetRatio = 300;
-  std::string exportFormat = "ubo2003";
-  bool resume = true;
-  int threads = 1;  // 1 leaves the other core to the UI and the previews
 };
 
 /// Owns the window; declared first in App so it is destroyed last, after every GL object.
@@ -226,7 +215,6 @@ class App {
   nlohmann::json m_report = nlohmann::json::object();
   std::string m_screenshotPending;
   int m_lastJobId = 0;
-  friend struct ScriptRunner;
 };
 
 // Panels (ui/panels/*.cpp).
@@ -236,6 +224,9 @@ void drawTileView(App& app);
 void drawPreviewPanel(App& app);
 void drawBrdfPanel(App& app);
 void drawJobsPanel(App& app);
+/// Renders the GLSL decoder into a float target at `samples` random (x, y, ωi, ωo) and compares
+/// with the CPU decoder (object_viewer.cpp; the script's check_glsl action).
+bool checkGlsl(App& app, int samples, double tolerance, nlohmann::json* result);
 void drawInspectorPanel(App& app);
 void drawObjectViewer(App& app);
 void drawStudyPanel(App& app);

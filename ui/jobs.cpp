@@ -1,6 +1,7 @@
 #include "jobs.h"
 
 #include <btf/core/error.h>
+#include <btf/core/run_context.h>
 #include <btf/core/sysinfo.h>
 
 namespace btf::ui {
@@ -161,6 +162,9 @@ void JobQueue::worker() {
         end = JobStatus::Cancelled;
         job->message = "cancelled";
       }
+    } catch (const Cancelled&) {
+      end = JobStatus::Cancelled;
+      job->message = "cancelled";
     } catch (const std::exception& e) {
       end = job->cancel.cancelled() ? JobStatus::Cancelled : JobStatus::Failed;
       job->message = job->cancel.cancelled() ? "cancelled" : e.what();

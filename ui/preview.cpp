@@ -1,6 +1,7 @@
 #include "preview.h"
 
 #include <btf/core/error.h>
+#include <btf/core/run_context.h>
 #include <btf/sim/brdf_probe.h>
 #include <btf/sim/simulator.h>
 
@@ -107,6 +108,8 @@ void PreviewWorker::loop() {
     }
     try {
       runGeneration(r, gen, *cancel);
+    } catch (const Cancelled&) {
+      // superseded by a newer request: nothing to report
     } catch (const std::exception& e) {
       publish([&](PreviewResult& res) { res.error = e.what(); }, gen);
     }

@@ -1,6 +1,8 @@
 // Background jobs: the estimate before starting, then per job its stage, progress bar, ETA,
 // memory and cancel ("stop" keeps a simulation's partial file so it resumes next time).
 #include <btf/core/sysinfo.h>
+#include <btf/ops/ops.h>
+#include <btf/sim/simulator.h>
 #include <imgui.h>
 #include <imgui_stdlib.h>
 
@@ -20,20 +22,40 @@ void drawJobsPanel(App& app) {
   JobForm& f = app.form;
   ImGui::SetNextItemWidth(200);
   ImGui::InputText("output (no extension)", &f.output);
-  ImGui::SetNextItemWidth(90);
-  ImGui::InputInt("texels", &f.texels, 8);
-  f.texels = std::clamp(f.texels, 1, 4096);
-  ImGui::SameLine();
-  ImGui::SetNextItemWidth(90);
-  ImGui::InputText("directions", &f.directions);
-  ImGui::SameLine();
-  ImGui::SetNextItemWidth(70);
-  ImGui::InputInt("spp", &f.spp, 1);
-  f.spp = std::clamp(f.spp, 1, 16);
+  // Texels, directions and spp start from the scene's simulation block: a value typed here
+  // overrides it for the jobs (the engine validates it, naming the option and its range);
+  // "scene" goes back to the scene's value.
+  const SimOptions fo = ops::simOptions(app.doc.scene(), f.sim);
+  auto simField = [&](const char* label, const char* key, std::string shown, float width) {
+    ImGui::SetNextItemWidth(width);
+    std::string text = shown;
+    if (ImGui::InputText(label, &text, ImGuiInputTextFlags_EnterReturnsTrue)) {
+      try {
+        f.sim.set(key, text);
+      } catch (const std::exception& e) {
+        app.message(e.what(), true);
+      }
+    }
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("%s", f.sim.given(key) ? "set for the jobs" : "the scene's value");
+    if (f.sim.given(key)) {
+      ImGui::SameLine();
+      std::string id = "scene##";  // (not literal + key: GCC 12's -Wrestrict false positive)
+      id += key;
+      if (ImGui::SmallButton(id.c_str())) f.sim.unset(key);
+    }
+    ImGui::SameLine();
+  };
+  std::string texels = std::to_string(fo.nu);
+  if (fo.nv != fo.nu) texels += 'x' + std::to_string(fo.nv);
+  simField("texels", "texels", texels, 70);
+  simField("directions", "dirs", fo.directions, 80);
+  simField("spp", "spp", std::to_string(fo.spp), 40);
+  ImGui::NewLine();
   ImGui::SetNextItemWidth(90);
   if (ImGui::BeginCombo("codec", f.codec.c_str())) {
-    for (const char* c : {"nmf", "svd", "perview", "lpca"})
-      if (ImGui::Selectable(c, f.codec == c)) f.codec = c;
+    for (const std::string& c : codecNames())
+      if (ImGui::Selectable(c.c_str(), f.codec == c)) f.codec = c;
     ImGui::EndCombo();
   }
   ImGui::SameLine();
@@ -70,8 +92,8 @@ void drawJobsPanel(App& app) {
   ImGui::SameLine();
   ImGui::SetNextItemWidth(90);
   if (ImGui::BeginCombo("##fmt", f.exportFormat.c_str())) {
-    for (const char* c : {"ubo2003", "ubo2014", "merl"})
-      if (ImGui::Selectable(c, f.exportFormat == c)) f.exportFormat = c;
+    for (const std::string& c : ops::command("export").find("format")->choices)
+      if (ImGui::Selectable(c.c_str(), f.exportFormat == c)) f.exportFormat = c;
     ImGui::EndCombo();
   }
   ImGui::SameLine();

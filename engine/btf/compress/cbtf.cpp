@@ -1,5 +1,6 @@
 #include "cbtf.h"
 
+#include <btf/core/container.h>
 #include <btf/core/error.h>
 #include <btf/core/hash.h>
 #include <fcntl.h>
@@ -17,12 +18,9 @@
 namespace btf {
 namespace {
 
-constexpr char kMagic[8] = {'B', 'T', 'F', 'C', 'O', 'M', 'P', '1'};
+constexpr container::Magic kMagic = {'B', 'T', 'F', 'C', 'O', 'M', 'P', '1'};
 constexpr int kFormatVersion = 1;
-
-uint64_t alignUp(uint64_t x, uint64_t a) {
-  return (x + a - 1) / a * a;
-}
+using container::alignUp;
 
 const char* typeName(ArrayType t) {
   return t == ArrayType::F16 ? "f16" : "f32";
@@ -171,10 +169,9 @@ void writeCompressed(const std::string& path, const CompressedBtf& c) {
       off += uint64_t(w);
     }
   };
-  const uint64_t hlen = L.header.size(), hsum = checksum64(L.header);
-  put(kMagic, 8, 0);
-  put(&hlen, 8, 8);
-  put(&hsum, 8, 16);
+  const uint64_t hlen = L.header.size();
+  const auto pre = container::preamble(kMagic, L.header);
+  put(pre.data(), pre.size(), 0);
   put(L.header.data(), hlen, 24);
   const std::vector<char> zeros(64, 0);
   uint64_t end = 24 + hlen;
@@ -193,10 +190,7 @@ void writeCompressed(const std::string& path, const CompressedBtf& c) {
 }
 
 bool isCompressedFile(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  char m[8] = {};
-  f.read(m, 8);
-  return f.gcount() == 8 && std::memcmp(m, kMagic, 8) == 0;
+  return container::hasMagic(path, kMagic);
 }
 
 CompressedBtf readCompressed(const std::string& path) {
@@ -205,18 +199,14 @@ CompressedBtf readCompressed(const std::string& path) {
   f.seekg(0, std::ios::end);
   const uint64_t size = uint64_t(f.tellg());
   f.seekg(0);
-  char magic[8] = {};
-  uint64_t hlen = 0, hsum = 0;
-  f.read(magic, 8);
-  f.read(reinterpret_cast<char*>(&hlen), 8);
-  f.read(reinterpret_cast<char*>(&hsum), 8);
-  if (!f || size < 24) throw Error(path + ": truncated file (no complete header)");
-  if (std::memcmp(magic, kMagic, 8) != 0)
-    throw Error(path + ": not a compressed BTF (bad magic bytes)");
-  if (hlen > size - 24) throw Error(path + ": truncated file (header runs past the end)");
+  char first[container::kPreambleBytes] = {};
+  f.read(first, sizeof first);
+  const container::Preamble pre =
+      container::parsePreamble(first, f ? size : 0, kMagic, path, "compressed BTF");
+  const uint64_t hlen = pre.headerBytes;
   std::string header(hlen, '\0');
   f.read(header.data(), std::streamsize(hlen));
-  if (checksum64(header) != hsum) throw Error(path + ": header checksum mismatch (corrupt file)");
+  container::checkHeader(header, pre, path);
   CompressedBtf c;
   nlohmann::json j;
   try {

@@ -2,6 +2,7 @@
 
 #include <btf/core/error.h>
 #include <btf/core/progress.h>
+#include <btf/core/run_context.h>
 #include <btf/core/sysinfo.h>
 #include <btf/io/image_io.h>
 
@@ -58,12 +59,12 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
     const auto t0 = Clock::now();
     ProgressReporter pr("encode " + s.codec, info.texels(), progress);
     for (int c = 0; c < info.chunks(); ++c) {
-      if (cancel && cancel->cancelled()) throw Error("compression cancelled");
+      if (cancel && cancel->cancelled()) throw Cancelled("compression");
       const std::vector<float> chunk = in.readChunk(c);
       enc->add(info.chunkBegin(c), info.chunkEnd(c), chunk.data());
       pr.add(info.chunkEnd(c) - info.chunkBegin(c));
     }
-    if (cancel && cancel->cancelled()) throw Error("compression cancelled");
+    if (cancel && cancel->cancelled()) throw Cancelled("compression");
     pr.finish();
     r.encodeSeconds = since(t0);
   }
@@ -134,7 +135,7 @@ ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, 
         maxAbs = std::max(maxAbs, mx);
       },
       cancel);
-  if (cancel && cancel->cancelled()) throw Error("compare cancelled");
+  if (cancel && cancel->cancelled()) throw Cancelled("compare");
   pr.finish();
   r.values = T * int64_t(lv) * 3;
   r.rmse = std::sqrt(sumErr / double(r.values));

@@ -2,6 +2,7 @@
 
 #include <btf/core/error.h>
 #include <btf/core/progress.h>
+#include <btf/core/run_context.h>
 #include <btf/directions/direction_set.h>
 #include <btf/io/image_io.h>
 
@@ -51,7 +52,14 @@ void put(std::string& s, T v) {
 
 }  // namespace
 
-int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress) {
+static std::string fmtDeg(double d) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.10g", d);
+  return b;
+}
+
+int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
+                      const CancelToken* cancel) {
   const BtfInfo& info = d.info();
   const int n = info.nDirs();
   // Names must be unique after rounding to integer degrees.
@@ -87,7 +95,9 @@ int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress) {
         std::memcpy(&slab[(size_t(v - v0) * size_t(T) + size_t(t)) * size_t(n) * 3],
                     &texel[size_t(v) * n * 3], size_t(n) * 3 * sizeof(float));
     }
+    throwIfCancelled(cancel, "export ubo2003");
     for (int v = v0; v < v1; ++v) {
+      throwIfCancelled(cancel, "export ubo2003");
       const std::string sub = dir + "/" + blocksV[size_t(v)];
       std::filesystem::create_directories(sub);
       for (int l = 0; l < n; ++l) {
@@ -98,7 +108,14 @@ int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress) {
                 slab[((size_t(v - v0) * size_t(T) + size_t(t)) * size_t(n) + size_t(l)) * 3 +
                      size_t(c)];
         const std::string name = blocksL[size_t(l)] + "_" + blocksV[size_t(v)] + ".exr";
-        writeRgbImage(sub + "/" + name, info.nu, info.nv, img);
+        const auto& dv = info.dirsDeg[size_t(v)];
+        const auto& dl = info.dirsDeg[size_t(l)];
+        writeRgbImage(sub + "/" + name, info.nu, info.nv, img, 1.0f, true,
+                      {{"units", "aBRDF, 1/sr, linear RGB"},
+                       {"view_theta_phi_deg", fmtDeg(dv[0]) + "," + fmtDeg(dv[1])},
+                       {"light_theta_phi_deg", fmtDeg(dl[0]) + "," + fmtDeg(dl[1])},
+                       {"scene", info.sceneName},
+                       {"scene_hash", info.sceneHash}});
         ++images;
         pr.add(1);
       }
@@ -122,7 +139,7 @@ int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress) {
 }
 
 Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int components,
-                            bool progress) {
+                            bool progress, const CancelToken* cancel) {
   const BtfInfo& info = d.info();
   const int n = info.nDirs();
   const int64_t T = info.texels();
@@ -134,18 +151,28 @@ Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int compo
   s.half = false;
   s.components = std::max(1, components);
   s.trainTexels = int(std::min<int64_t>(T, 1024));
-  auto enc = makeEncoder(s, info);
+  auto enc = makeEncoder(s, info, cancel);
   {
+    // The basis comes from the training texels: decoding them and the SVD are most of the time
+    // on small BTFs, so they have a bar of their own.
     const auto train = enc->trainingTexels();
+    ProgressReporter pr("export ubo2014: training", int64_t(train.size()) + 1, progress);
     std::vector<float> tv(train.size() * stride);
-    for (size_t i = 0; i < train.size(); ++i) d.texel(train[i], tv.data() + i * stride);
+    for (size_t i = 0; i < train.size(); ++i) {
+      if (i % 64 == 0) throwIfCancelled(cancel, "export ubo2014");
+      d.texel(train[i], tv.data() + i * stride);
+      pr.add(1);
+    }
     enc->train(tv.data());
+    pr.add(1);
+    pr.finish();
   }
   {
     ProgressReporter pr("export ubo2014", T, progress);
     std::vector<float> buf;
     const int64_t batch = 64;
     for (int64_t t0 = 0; t0 < T; t0 += batch) {
+      throwIfCancelled(cancel, "export ubo2014");
       const int64_t t1 = std::min(T, t0 + batch);
       buf.resize(size_t(t1 - t0) * stride);
       for (int64_t t = t0; t < t1; ++t) d.texel(t, buf.data() + size_t(t - t0) * stride);
@@ -257,7 +284,8 @@ void halfDiffToDirections(double th, double ph, double td, double pd, double wi[
   }
 }
 
-MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples, bool progress) {
+MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples, bool progress,
+                      const CancelToken* cancel) {
   if (phiSamples < 1) throw Error("export merl: --phi-samples must be ≥ 1");
   const BtfInfo& info = d.info();
   const int n = info.nDirs();
@@ -268,6 +296,7 @@ MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples,
     std::vector<float> buf(avg.size());
     ProgressReporter pr("texel average", T, progress);
     for (int64_t t = 0; t < T; ++t) {
+      if (t % 64 == 0) throwIfCancelled(cancel, "export merl");
       d.texel(t, buf.data());
       for (size_t i = 0; i < buf.size(); ++i) avg[i] += buf[i];
       pr.add(1);
@@ -299,42 +328,47 @@ MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples,
   std::vector<int64_t> missing(90, 0);
   std::vector<double> spreadS(90, 0.0);
   std::vector<int64_t> spreadN(90, 0);
-  parallelForChunks(90, 1, [&](int64_t h0, int64_t h1) {
-    for (int64_t ih = h0; ih < h1; ++ih) {
-      for (int id = 0; id < 90; ++id)
-        for (int ip = 0; ip < 180; ++ip) {
-          double th, td, pd;
-          merlBinCentre(int(ih), id, ip, &th, &td, &pd);
-          double sum[3] = {0, 0, 0}, sumL = 0, sumL2 = 0;
-          int valid = 0;
-          for (int k = 0; k < phiSamples; ++k) {
-            const double ph = (k + 0.5) * 2 * kPi / phiSamples;
-            double wi[3], wo[3], rgb[3];
-            halfDiffToDirections(th, ph, td, pd, wi, wo);
-            if (wi[2] <= 0 || wo[2] <= 0) continue;
-            eval(wi, wo, rgb);
-            for (int c = 0; c < 3; ++c) sum[c] += rgb[c];
-            const double lum = (rgb[0] + rgb[1] + rgb[2]) / 3;
-            sumL += lum;
-            sumL2 += lum * lum;
-            ++valid;
-          }
-          const int64_t idx = ip + 180 * (id + 90 * ih);
-          if (valid == 0) {
-            missing[size_t(ih)]++;
-            continue;
-          }
-          for (int c = 0; c < 3; ++c) vals[size_t(c) * N + size_t(idx)] = sum[c] / valid / scale[c];
-          if (valid > 1 && sumL > 0) {
-            const double mean = sumL / valid;
-            const double var = std::max(0.0, sumL2 / valid - mean * mean);
-            spreadS[size_t(ih)] += std::sqrt(var) / mean;
-            spreadN[size_t(ih)]++;
-          }
+  parallelForChunks(
+      90, 1,
+      [&](int64_t h0, int64_t h1) {
+        for (int64_t ih = h0; ih < h1; ++ih) {
+          for (int id = 0; id < 90; ++id)
+            for (int ip = 0; ip < 180; ++ip) {
+              double th, td, pd;
+              merlBinCentre(int(ih), id, ip, &th, &td, &pd);
+              double sum[3] = {0, 0, 0}, sumL = 0, sumL2 = 0;
+              int valid = 0;
+              for (int k = 0; k < phiSamples; ++k) {
+                const double ph = (k + 0.5) * 2 * kPi / phiSamples;
+                double wi[3], wo[3], rgb[3];
+                halfDiffToDirections(th, ph, td, pd, wi, wo);
+                if (wi[2] <= 0 || wo[2] <= 0) continue;
+                eval(wi, wo, rgb);
+                for (int c = 0; c < 3; ++c) sum[c] += rgb[c];
+                const double lum = (rgb[0] + rgb[1] + rgb[2]) / 3;
+                sumL += lum;
+                sumL2 += lum * lum;
+                ++valid;
+              }
+              const int64_t idx = ip + 180 * (id + 90 * ih);
+              if (valid == 0) {
+                missing[size_t(ih)]++;
+                continue;
+              }
+              for (int c = 0; c < 3; ++c)
+                vals[size_t(c) * N + size_t(idx)] = sum[c] / valid / scale[c];
+              if (valid > 1 && sumL > 0) {
+                const double mean = sumL / valid;
+                const double var = std::max(0.0, sumL2 / valid - mean * mean);
+                spreadS[size_t(ih)] += std::sqrt(var) / mean;
+                spreadN[size_t(ih)]++;
+              }
+            }
+          pr.add(1);
         }
-      pr.add(1);
-    }
-  });
+      },
+      cancel);
+  throwIfCancelled(cancel, "export merl");
   pr.finish();
   for (int i = 0; i < 90; ++i) {
     rep.missingBins += missing[size_t(i)];

@@ -12,7 +12,8 @@ namespace btf {
 /// One linear float EXR per (light, view) pair, in one folder per view:
 /// DIR/tvTTT_pvPPP/tlTTT_plPPP_tvTTT_pvPPP.exr (integer degrees), plus DIR/btf_export.json saying
 /// what the values are. Returns the number of images.
-int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress);
+int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
+                      const CancelToken* cancel = nullptr);
 
 struct Ubo2014Report {
   int components[3] = {0, 0, 0};
@@ -22,7 +23,7 @@ struct Ubo2014Report {
 /// DFMF container, colour model 0 (RGB), fp16, C components per channel (full-matrix SVD
 /// computed from the decoded BTF).
 Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int components,
-                            bool progress);
+                            bool progress, const CancelToken* cancel = nullptr);
 
 struct MerlReport {
   int64_t bins = 0, missingBins = 0;
@@ -31,7 +32,8 @@ struct MerlReport {
 /// Texel-averaged aBRDF resampled to MERL's 90 × 90 × 180 bins: each bin's value is the mean
 /// over phiSamples half-vector azimuths φ_h = (k + ½)·2π/phiSamples at the bin centre; bins
 /// with every sample below the horizon are missing (−1).
-MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples, bool progress);
+MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples, bool progress,
+                      const CancelToken* cancel = nullptr);
 
 /// Bin centre of MERL indices → (θh, θd, φd) in radians, and (θh, θd, φd, φh) → (ω_i, ω_o).
 void merlBinCentre(int thetaHalf, int thetaDiff, int phiDiff, double* th, double* td, double* pd);

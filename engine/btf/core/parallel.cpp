@@ -1,7 +1,7 @@
 #include <btf/core/parallel.h>
+#include <btf/core/run_context.h>
 #include <pmmintrin.h>
 #include <tbb/blocked_range.h>
-#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 #include <tbb/task_scheduler_observer.h>
@@ -23,16 +23,19 @@ void parallelForChunks(int64_t count, int64_t grain,
                     });
 }
 
-ThreadLimit::ThreadLimit(int threads) {
-  if (threads > 0)
-    m_control =
-        new tbb::global_control(tbb::global_control::max_allowed_parallelism, size_t(threads));
+void withThreads(int threads, const std::function<void()>& fn) {
+  if (threads < 0)
+    throw Error("invalid thread count " + std::to_string(threads) + ": must be >= 0");
+  if (threads == 0) {
+    fn();
+    return;
+  }
+  tbb::task_arena arena(threads);
+  arena.execute(fn);
 }
-ThreadLimit::~ThreadLimit() {
-  delete static_cast<tbb::global_control*>(m_control);
-}
-int ThreadLimit::current() {
-  return int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+
+int currentThreads() {
+  return tbb::this_task_arena::max_concurrency();
 }
 
 namespace {

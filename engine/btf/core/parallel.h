@@ -21,19 +21,6 @@ void parallelForChunks(int64_t count, int64_t grain,
                        const std::function<void(int64_t, int64_t)>& fn,
                        const CancelToken* cancel = nullptr);
 
-/// Limits the worker threads for the lifetime of the object (0 = all cores).
-class ThreadLimit {
- public:
-  explicit ThreadLimit(int threads);
-  ~ThreadLimit();
-  ThreadLimit(const ThreadLimit&) = delete;
-  ThreadLimit& operator=(const ThreadLimit&) = delete;
-  static int current();
-
- private:
-  void* m_control = nullptr;
-};
-
 /// Sets flush-to-zero / denormals-are-zero on every TBB worker (Embree asks for it).
 void enableFlushToZeroOnWorkers();
 

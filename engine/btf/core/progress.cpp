@@ -29,6 +29,7 @@ ProgressReporter::ProgressReporter(std::string stage, int64_t total, bool print)
     m_observer->total = m_total;
     ++m_observer->stages;
   }
+  if (m_observer && m_observer->onStage) m_observer->onStage(m_stage);
 }
 
 ProgressReporter::~ProgressReporter() {
@@ -65,18 +66,23 @@ void ProgressReporter::draw(bool final) {
   if (m_tty) {
     if (!final && std::chrono::duration<double>(now - m_lastDraw).count() < 0.2) return;
   } else {
+    // A line per 10 %, and the 100 % line once (finish() after the last add() draws nothing new).
     const int decile = int(frac * 10);
-    if (!final && decile == m_lastDecile) return;
+    if (decile == m_lastDecile && (!final || decile == 10)) return;
     m_lastDecile = decile;
   }
   m_lastDraw = now;
   const int width = 30;
   std::string bar(width, ' ');
   for (int i = 0; i < int(frac * width); ++i) bar[i] = '#';
-  const double eta = frac > 0 ? el * (1 - frac) / frac : -1;
-  std::fprintf(stderr, "%s%-14s [%s] %5.1f%%  %s elapsed, ETA %s%s", m_tty ? "\r" : "",
-               m_stage.c_str(), bar.c_str(), 100 * frac, formatSeconds(el).c_str(),
-               final ? "0 s" : formatSeconds(eta).c_str(), (m_tty && !final) ? "" : "\n");
+  // An ETA from the first percent of a stage is noise (set-up costs dominate): say so instead.
+  const bool known = frac >= 0.05 && el >= 0.5;
+  const std::string eta = final || frac >= 1 ? "done"
+                          : known            ? "ETA " + formatSeconds(el * (1 - frac) / frac)
+                                             : "ETA …";
+  std::fprintf(stderr, "%s%-14s [%s] %5.1f%%  %s elapsed, %s%s", m_tty ? "\r" : "", m_stage.c_str(),
+               bar.c_str(), 100 * frac, formatSeconds(el).c_str(), eta.c_str(),
+               (m_tty && !final) ? "" : "\n");
   std::fflush(stderr);
 }
 

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <string>
 
@@ -19,6 +20,8 @@ struct ProgressState {
   std::atomic<int64_t> done{0}, total{1};
   std::atomic<int> stages{0};                        // reporters started so far
   std::chrono::steady_clock::time_point stageStart;  // guarded by mutex
+  /// Called on the running thread as each stage starts (tests cancel at a stage with it).
+  std::function<void(const std::string& stage)> onStage;
   std::string currentStage() const {
     std::lock_guard lock(mutex);
     return stage;

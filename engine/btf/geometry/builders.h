@@ -23,8 +23,10 @@ TriMesh buildTorus(Vec3 c, float R, float r, int nu, int nv);
 /// Mesh file (OBJ, PLY, OFF) through OpenMesh; polygons are triangulated. Throws btf::Error
 /// naming the file for unreadable, empty, degenerate or non-manifold meshes.
 TriMesh loadMeshFile(const std::string& path, bool smooth);
-/// Subdivision surface of a control cage file, refined `levels` times by OpenSubdiv.
-TriMesh buildSubdivision(const std::string& cagePath, int levels, const std::string& scheme);
+/// Subdivision surface of a control cage file, refined `levels` times by OpenSubdiv. Boundary
+/// vertices interpolate their edges; `sharpCorners` also pins the corners (the object cages).
+TriMesh buildSubdivision(const std::string& cagePath, int levels, const std::string& scheme,
+                         bool sharpCorners = false);
 
 /// The part's geometry (its declared type) before transform and array.
 TriMesh buildPart(const Scene& scene, const PartDef& part);

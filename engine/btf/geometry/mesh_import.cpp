@@ -90,7 +90,8 @@ TriMesh loadMeshFile(const std::string& path, bool smooth) {
   return m;
 }
 
-TriMesh buildSubdivision(const std::string& cagePath, int levels, const std::string& scheme) {
+TriMesh buildSubdivision(const std::string& cagePath, int levels, const std::string& scheme,
+                         bool sharpCorners) {
   using namespace OpenSubdiv;
   PolyMesh cage = readPoly(cagePath);
   std::vector<int> vertsPerFace, faceVerts;
@@ -114,7 +115,8 @@ TriMesh buildSubdivision(const std::string& cagePath, int levels, const std::str
   desc.numVertsPerFace = vertsPerFace.data();
   desc.vertIndicesPerFace = faceVerts.data();
   Sdc::Options opts;
-  opts.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
+  opts.SetVtxBoundaryInterpolation(sharpCorners ? Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER
+                                                : Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
   using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
   std::unique_ptr<Far::TopologyRefiner> refiner(
       Factory::Create(desc, Factory::Options(type, opts)));

@@ -14,11 +14,14 @@ float linearToSrgb(float v) {
 }
 
 void writeRgbImage(const std::string& path, int w, int h, const std::vector<float>& rgb,
-                   float scale, bool flipY) {
+                   float scale, bool flipY, const ImageMetadata& metadata) {
   BTF_CHECK(rgb.size() == size_t(w) * h * 3);
   std::string ext = std::filesystem::path(path).extension().string();
   for (auto& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  const bool hdr = ext == ".exr" || ext == ".hdr" || ext == ".tif" || ext == ".tiff";
+  if (ext != ".exr" && ext != ".png")
+    throw Error(path + ": unsupported image type '" + ext +
+                "' (expected .exr, linear float, or .png, sRGB)");
+  const bool hdr = ext == ".exr";
   // Images are stored bottom row first in memory (v up); files are top row first.
   std::vector<float> px(rgb.size());
   for (int j = 0; j < h; ++j) {
@@ -35,7 +38,13 @@ void writeRgbImage(const std::string& path, int w, int h, const std::vector<floa
   auto out = OIIO::ImageOutput::create(path);
   if (!out) throw Error(path + ": cannot write images of this type (" + OIIO::geterror() + ")");
   OIIO::ImageSpec spec(w, h, 3, hdr ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::UINT8);
-  if (ext == ".exr") spec.format = OIIO::TypeDesc::FLOAT;
+  if (hdr) {
+    spec.format = OIIO::TypeDesc::FLOAT;
+    spec.attribute("oiio:ColorSpace", "Linear");
+    for (const auto& [k, v] : metadata) spec.attribute("btf:" + k, v);
+  } else {
+    spec.attribute("oiio:ColorSpace", "sRGB");  // the PNG writer adds the sRGB chunk
+  }
   if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, px.data()) || !out->close())
     throw Error(path + ": cannot write image (" + out->geterror() + ")");
   std::filesystem::rename(tmp, path);

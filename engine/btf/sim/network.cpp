@@ -1,5 +1,6 @@
 #include <btf/core/error.h>
 #include <btf/core/rng.h>
+#include <btf/core/run_context.h>
 #include <btf/sim/network.h>
 #include <btf/sim/shading.h>
 
@@ -256,7 +257,7 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
           m_points[size_t(i)].enclosed = 2 * traceHits(i, hits, hitDirs) > dirsUsed;
       },
       cancel);
-  if (cancel && cancel->cancelled()) return;
+  throwIfCancelled(cancel, "network build");
   // 4b. α and links.
   parallelForChunks(
       int64_t(m_points.size()), 16,
@@ -318,6 +319,7 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
         }
       },
       cancel);
+  throwIfCancelled(cancel, "network build");
   m_links.clear();
   double sumA = 0;
   m_maxAlpha = 0;
@@ -472,6 +474,7 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
         }
       },
       cancel);
+  throwIfCancelled(cancel, "network light");
   m_seconds = since(start);
 }
 

@@ -1,15 +1,16 @@
 #include <btf/core/error.h>
 #include <btf/core/hash.h>
+#include <btf/core/run_context.h>
 #include <btf/core/sysinfo.h>
 #include <btf/geometry/tile_builder.h>
 #include <btf/sim/path_tracer.h>
 #include <btf/sim/shading.h>
 #include <btf/sim/simulator.h>
-#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <future>
@@ -21,9 +22,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
-}
-int activeThreads() {
-  return int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
 }
 }  // namespace
 
@@ -86,7 +84,7 @@ NetworkSettings SimulationJob::networkSettings() const {
 }
 
 void SimulationJob::checkCancel() const {
-  if (m_cancel && m_cancel->cancelled()) throw Error("cancelled");
+  throwIfCancelled(m_cancel, "simulation set-up");
 }
 
 const EffectPlan& SimulationJob::plan() const {
@@ -133,7 +131,9 @@ BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
   i.Lx = m_scene.Lx;
   i.Ly = m_scene.Ly;
   i.directionSet = m_dirs.name();
-  for (const auto& d : m_dirs.dirs()) i.dirsDeg.push_back({rad2deg(d.theta), rad2deg(d.phi)});
+  // Degrees rounded to 1e-9: the sets' angles are stored as declared (15, not 14.999999999999998).
+  auto exactDeg = [](double rad) { return std::round(rad2deg(rad) * 1e9) / 1e9; };
+  for (const auto& d : m_dirs.dirs()) i.dirsDeg.push_back({exactDeg(d.theta), exactDeg(d.phi)});
   i.chunkTexels = chunkTexels;
   i.spp = m_opt.spp;
   const EffectPlan& pl = plan();
@@ -224,7 +224,7 @@ struct TexelKernel {
 
 SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   SimEstimate e;
-  e.threads = activeThreads();
+  e.threads = currentThreads();
   const EffectPlan& pl = plan();
   checkCancel();
   EffectPlan& plm = *m_plan;
@@ -280,10 +280,8 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   SampleGrid g{cal, cal, 1, m_scene.Lx, m_scene.Ly, m_opt.seed};
   HitMaps maps;
   auto t0 = Clock::now();
-  {
-    ThreadLimit one(1);
-    maps.build(*m_tracer, m_dirs, g);
-  }
+  withThreads(1, [&] { maps.build(*m_tracer, m_dirs, g, nullptr, m_cancel); });
+  checkCancel();
   const double perRay = since(t0) / double(maps.raysTraced());
   const double threads = std::max(1, e.threads);
   const ShadowMode mode = pl.selfShadowing ? m_opt.shadows : ShadowMode::None;
@@ -315,15 +313,14 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     NetworkLighting light;
     const int P = pl.interreflection ? pl.bounces : std::max(2, m_opt.plan.maxAutoBounces);
     const int nCal = std::min(2, nD);
-    {
-      ThreadLimit one(1);
+    withThreads(1, [&] {
       light.solve(
           *m_network, m_geom, m_materials, m_dirs,
           [&](int l, const Vec3& p, const Vec3& ng, uint32_t prim) {
             return direct.lightVisibility(l, p, ng, prim);
           },
-          P, glossyGather(), nullptr, nullptr, nCal);
-    }
+          P, glossyGather(), nullptr, m_cancel, nCal);
+    });
     checkCancel();
     const double perLight = (light.solveSeconds() - light.setupSeconds()) / nCal;
     NetworkGather gather(*m_network, light, m_geom, m_materials);
@@ -334,15 +331,15 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     if (gi && !pl.glossyIndirect && anyGlossy(m_materials)) {
       // What gathering through the glossy lobes would have cost (mean-direction variant).
       NetworkLighting lg;
-      {
-        ThreadLimit one(1);
+      withThreads(1, [&] {
         lg.solve(
             *m_network, m_geom, m_materials, m_dirs,
             [&](int l, const Vec3& p, const Vec3& ng, uint32_t prim) {
               return direct.lightVisibility(l, p, ng, prim);
             },
-            P, GlossyGather::MeanDirection, nullptr, nullptr, nCal);
-      }
+            P, GlossyGather::MeanDirection, nullptr, m_cancel, nCal);
+      });
+      checkCancel();
       NetworkGather gg(*m_network, lg, m_geom, m_materials);
       const double withGlossy = timeKernel(mode, &gg, false);
       plm.find("glossy_indirect")->secondsSaved =
@@ -395,10 +392,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   r.hitMapSeconds = since(start);
   r.hitMapRays = maps.raysTraced();
   r.precomputeSeconds = r.hitMapSeconds + (gi ? r.networkSeconds : 0);
-  if (cancel && cancel->cancelled()) {
-    r.cancelled = true;
-    return r;
-  }
+  throwIfCancelled(cancel, "hit maps");
   const int nD = m_dirs.size();
   if (writer) {
     std::vector<float> vmf;
@@ -428,10 +422,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     pr.finish();
     r.lightSeconds = lighting.solveSeconds();
     gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
-    if (cancel && cancel->cancelled()) {
-      r.cancelled = true;
-      return r;
-    }
+    throwIfCancelled(cancel, "network light");
   }
   TexelKernel kernel{*m_tracer, m_materials, m_dirs, maps, direct, gather.get(), pt, {}, 1, {}};
   kernel.ptPaths = m_opt.ptPaths;
@@ -473,10 +464,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
           }
         },
         cancel);
-    if (cancel && cancel->cancelled()) {
-      r.cancelled = true;
-      return r;
-    }
+    throwIfCancelled(cancel, "training texels");
     tp.finish();
     m_trainSink(values.data());
     if (m_onlyTrainingTexels) {
@@ -510,8 +498,8 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
         },
         cancel);
     if (cancel && cancel->cancelled()) {
-      r.cancelled = true;
-      break;
+      waitWrite();  // the chunk in flight lands in the .partial; then the one outcome
+      throw Cancelled("aBRDF");
     }
     r.abrdfValues += uint64_t(t1 - t0) * uint64_t(nD) * uint64_t(nD);
     if (m_sink) m_sink(c, t0, t1, chunk.data());
@@ -526,12 +514,12 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     }
   }
   waitWrite();
-  if (!r.cancelled) pr.finish();
+  pr.finish();
   // Writes overlap the compute: the time spent waiting for the last one is not compute.
   r.evalSeconds = since(evalStart);
   r.renderSeconds = since(renderStart);
   r.brdfEvaluations = evals.load();
-  if (writer && !r.cancelled) {
+  if (writer) {
     writer->finish();
     r.outputBytes = btfFileBytes(info);
   }
@@ -568,7 +556,7 @@ std::vector<float> SimulationJob::evaluateTexels(const std::vector<int64_t>& tex
   m_opt.progress = progress;
   m_trainTexels = std::move(savedTexels);
   m_trainSink = std::move(savedSink);
-  if (cancel && cancel->cancelled()) out.clear();
+  throwIfCancelled(cancel, "texel evaluation");
   return out;
 }
 
@@ -587,7 +575,7 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
   HitMaps maps;
   maps.build(*m_tracer, pair, grid, nullptr, cancel);
   std::vector<float> img(size_t(nu) * size_t(nv) * 3, 0.f);
-  if (cancel && cancel->cancelled()) return img;
+  throwIfCancelled(cancel, "preview");
   const ShadowMode mode = selfShadowing ? m_opt.shadows : ShadowMode::None;
   DirectIllumination direct(*m_tracer, m_materials, pair, maps, {mode, m_opt.shadowBias});
   NetworkLighting lighting;
@@ -600,6 +588,7 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
           return direct.lightVisibility(l, p, ng, prim);
         },
         pl->bounces, glossy, nullptr, cancel);
+    throwIfCancelled(cancel, "preview");
     gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
   }
   TexelKernel kernel{*m_tracer,    m_materials,    pair, maps, direct,
@@ -621,6 +610,7 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
         }
       },
       cancel);
+  throwIfCancelled(cancel, "preview");
   return img;
 }
 

@@ -2,6 +2,7 @@
 // chunks of the raw BTF store. Memory is bounded by the budget (the chunk size follows from it),
 // the estimate of time, memory and disk comes before any work, and runs resume chunk by chunk.
 #pragma once
+#include <btf/core/run_context.h>
 #include <btf/directions/direction_set.h>
 #include <btf/geometry/mesh.h>
 #include <btf/scene/material.h>
@@ -69,7 +70,6 @@ struct SimReport {
   uint64_t brdfEvaluations = 0;  // (sample, view, light) BRDF × visibility evaluations
   uint64_t peakRssBytes = 0, outputBytes = 0;
   int chunks = 0, chunksResumed = 0;
-  bool cancelled = false;
 };
 
 class SimulationJob {
@@ -85,7 +85,7 @@ class SimulationJob {
   const std::vector<Material>& materials() const { return m_materials; }
   std::string sceneHash() const;
   /// Cancellation of the set-up work (the point network, the planner's probes, the estimate's
-  /// calibration): each throws btf::Error("cancelled") once `cancel` is set. run() takes its own.
+  /// calibration): each throws btf::Cancelled once `cancel` is set. run() takes its own.
   void setCancel(const CancelToken* cancel) { m_cancel = cancel; }
   /// The effect plan (computed on first use: builds the point network unless inter-reflection is
   /// forced off).
@@ -113,7 +113,8 @@ class SimulationJob {
   std::vector<float> renderPair(const Direction& view, const Direction& light, int nu, int nv,
                                 bool indirect, const CancelToken* cancel = nullptr) const;
   /// Every value (views × lights × RGB, texel-major in the given order) of a few texels, as run()
-  /// computes them: the studio's texel BRDF view. Empty when cancelled.
+  /// computes them: the studio's texel BRDF view. Every
+  /// stage throws btf::Cancelled once `cancel` is set (run() leaves the .partial for --resume).
   std::vector<float> evaluateTexels(const std::vector<int64_t>& texels,
                                     const CancelToken* cancel = nullptr);
   /// The store header this job writes (chunk size from the memory budget).

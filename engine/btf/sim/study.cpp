@@ -1,5 +1,6 @@
 #include <btf/core/error.h>
 #include <btf/core/progress.h>
+#include <btf/core/run_context.h>
 #include <btf/core/sysinfo.h>
 #include <btf/sim/path_tracer.h>
 #include <btf/sim/simulator.h>
@@ -181,7 +182,7 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
   std::map<std::string, std::vector<Rgb>> setReference;  // per direction set, snapped probes
   ProgressReporter pr("study", int64_t(configs.size()), o.progress);
   for (const StudyConfig& c : configs) {
-    if (o.cancel && o.cancel->cancelled()) throw Error("study cancelled");
+    if (o.cancel && o.cancel->cancelled()) throw Cancelled("study");
     SimOptions so = base;
     so.method = c.method;
     so.ptPaths = c.paths;

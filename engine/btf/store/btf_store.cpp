@@ -1,3 +1,4 @@
+#include <btf/core/container.h>
 #include <btf/core/error.h>
 #include <btf/core/hash.h>
 #include <btf/store/btf_store.h>
@@ -15,11 +16,9 @@ namespace btf {
 
 namespace {
 
-constexpr char kMagic[8] = {'B', 'T', 'F', 'S', 'T', 'O', 'R', '1'};
+constexpr container::Magic kMagic = {'B', 'T', 'F', 'S', 'T', 'O', 'R', '1'};
 constexpr int kFormatVersion = 1;
-uint64_t alignUp(uint64_t x, uint64_t a) {
-  return (x + a - 1) / a * a;
-}
+using container::alignUp;
 
 struct TableEntry {
   uint64_t checksum;
@@ -154,10 +153,8 @@ BtfWriter::BtfWriter(const std::string& path, const BtfInfo& info, bool resume)
   if (::ftruncate(m_fd, off_t(m_layout.totalBytes)) != 0)
     throw Error(sysError(
         m_partial, "cannot size the file to " + std::to_string(m_layout.totalBytes) + " bytes"));
-  const uint64_t hlen = header.size(), hsum = checksum64(header);
-  pwriteAll(kMagic, 8, 0);
-  pwriteAll(&hlen, 8, 8);
-  pwriteAll(&hsum, 8, 16);
+  const auto pre = container::preamble(kMagic, header);
+  pwriteAll(pre.data(), pre.size(), 0);
   pwriteAll(header.data(), header.size(), 24);
   std::vector<TableEntry> table(size_t(info.chunks()), TableEntry{0, 0});
   pwriteAll(table.data(), table.size() * sizeof(TableEntry), m_layout.tableOffset);
@@ -227,18 +224,13 @@ BtfReader::BtfReader(const std::string& path) : m_path(path) {
   struct stat st;
   if (::fstat(m_fd, &st) != 0) throw Error(sysError(path, "cannot stat"));
   const uint64_t size = uint64_t(st.st_size);
-  char magic[8];
-  uint64_t hlen = 0, hsum = 0;
-  if (size < 24) throw Error(path + ": not a BTF store (file too short)");
-  preadAll(magic, 8, 0);
-  if (std::memcmp(magic, kMagic, 8) != 0) throw Error(path + ": not a BTF store (bad magic bytes)");
-  preadAll(&hlen, 8, 8);
-  preadAll(&hsum, 8, 16);
-  if (hlen > size - 24 || hlen > (256u << 20)) throw Error(path + ": truncated or corrupt header");
+  char first[container::kPreambleBytes] = {};
+  if (size >= sizeof first) preadAll(first, sizeof first, 0);
+  const container::Preamble pre = container::parsePreamble(first, size, kMagic, path, "BTF store");
+  const uint64_t hlen = pre.headerBytes;
   m_headerJson.resize(hlen);
   preadAll(m_headerJson.data(), hlen, 24);
-  if (checksum64(m_headerJson) != hsum)
-    throw Error(path + ": header checksum mismatch (corrupted file)");
+  container::checkHeader(m_headerJson, pre, path);
   m_info = infoFromJson(m_headerJson, path);
   m_layout = BtfLayout::of(m_info, hlen);
   if (size != m_layout.totalBytes)

@@ -2,12 +2,12 @@
 #include <btf/core/error.h>
 #include <btf/core/math.h>
 #include <btf/io/image_io.h>
+#include <btf/ops/ops.h>
 #include <btf/store/btf_store.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
 
-#include "commands.h"
 #include "test_util.h"
 
 namespace btf {
@@ -30,9 +30,9 @@ TEST(Btfsim, BadArgumentsAreOneLineErrorsWithNonzeroExit) {
       {"simulate " + scenePath("brick") + " -o x.btf -q --texels 0", "invalid --texels '0'"},
       {"simulate " + scenePath("brick") + " -o x.btf -q --texels -4x4", "invalid --texels"},
       {"simulate " + scenePath("brick") + " -o x.btf -q --shadows soft",
-       "unknown shadow mode 'soft'"},
+       "--shadows: must be one of map, rays (got 'soft')"},
       {"simulate " + scenePath("brick") + " -o x.btf -q --bias nan",
-       "shadow bias must be a finite number"},
+       "--bias: expected a finite number, got 'nan'"},
       {"simulate " + scenePath("brick") + " -o x.btf -q --memory-budget 10Q", "unknown unit 'Q'"},
       {"simulate missing.json -o x.btf", "missing.json: cannot open scene file"},
       {"simulate " + scenePath("brick") +
@@ -59,10 +59,10 @@ TEST(Btfsim, SimulateSliceInfoAndBrdfAgree) {
       << R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": [0.5, 0.25, 1]}},
     "parts": [{"type": "plane", "material": "m"}]})";
   std::string out;
-  ASSERT_EQ(test::runBtfsim("simulate " + (dir / "flat.json").string() + " -o " + btf +
-                                " --texels 4x3 --json -q",
-                            &out),
-            0)
+  ASSERT_EQ(
+      test::runBtfsim(
+          "simulate " + (dir / "flat.json").string() + " -o " + btf + " --texels 4x3 --json", &out),
+      0)
       << out;
   EXPECT_NE(out.find("\"abrdf_evaluations_per_second\""), std::string::npos);
   EXPECT_NE(out.find("estimate: "), std::string::npos);
@@ -109,16 +109,16 @@ TEST(Btfsim, BrdfReadsPairsFromCsvWithLineErrors) {
 
 TEST(Btfsim, TexelAndAngleParsers) {
   int a, b;
-  cli::parseTexels("64", &a, &b);
+  ops::parseTexels("64", &a, &b);
   EXPECT_EQ(a, 64);
   EXPECT_EQ(b, 64);
-  cli::parseTexels("64x32", &a, &b);
+  ops::parseTexels("64x32", &a, &b);
   EXPECT_EQ(b, 32);
-  EXPECT_THROW(cli::parseTexels("64y32", &a, &b), Error);
+  EXPECT_THROW(ops::parseTexels("64y32", &a, &b), Error);
   double t, p;
-  cli::parseAnglePair("30,45", "--view", &t, &p);
+  ops::parseAnglePair("30,45", "--view", &t, &p);
   EXPECT_EQ(p, 45);
-  EXPECT_THROW(cli::parseAnglePair("90,0", "--view", &t, &p), Error);
+  EXPECT_THROW(ops::parseAnglePair("90,0", "--view", &t, &p), Error);
 }
 
 }  // namespace

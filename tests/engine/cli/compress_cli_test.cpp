@@ -88,15 +88,18 @@ TEST(BtfsimCompress, BadInputsAreClearErrors) {
   struct Case {
     std::string args, expect;
   } cases[] = {
-      {"compress " + a + " -o x.cbtf --codec jpeg", "unknown codec 'jpeg'"},
+      {"compress " + a + " -o x.cbtf --codec jpeg",
+       "--codec: must be one of nmf, svd, perview, lpca (got 'jpeg')"},
       {"compress " + a + " -o x.cbtf --target-rmse 0.05 --target-ratio 300",
        "give one of them, not both"},
       {"compress " + a + " -o x.cbtf --beta 0", "--beta: must be in (0, 1]"},
-      {"compress " + a + " -o x.cbtf --beta-mode median", "unknown β mode 'median'"},
+      {"compress " + a + " -o x.cbtf --beta-mode median",
+       "--beta-mode: must be one of energy, singular (got 'median')"},
       {"compress missing.btf -o x.cbtf", "missing.btf"},
       {"compare " + a + " " + (dir / "b.btf").string(), "texel grids differ"},
       {"compare " + a + " " + (dir / "junk.cbtf").string(), "junk.cbtf: truncated file"},
-      {"export " + a + " --format obj -o x", "unknown export format 'obj'"},
+      {"export " + a + " --format obj -o x",
+       "--format: must be one of ubo2003, ubo2014, merl (got 'obj')"},
       {"compress " + a + " -o x.cbtf --codec svd --memory-budget 1M",
        "refusing to start: compressing"},
       {"info " + (dir / "junk.cbtf").string(), "truncated file"},

@@ -2,6 +2,7 @@
 // reciprocity, hard cases, and every effect-planner decision (off where it changes nothing, on
 // where it must be).
 #include <btf/core/error.h>
+#include <btf/core/run_context.h>
 #include <btf/geometry/tile_builder.h>
 #include <btf/sim/network.h>
 #include <btf/sim/path_tracer.h>
@@ -301,10 +302,7 @@ TEST(Network, NetworkIsDeterministicAndPruned) {
   ns.voxels = 32;
   PointNetwork a, b;
   a.build(t, ns);
-  {
-    ThreadLimit one(1);
-    b.build(t, ns);
-  }
+  withThreads(1, [&] { b.build(t, ns); });
   ASSERT_EQ(a.points().size(), b.points().size());
   ASSERT_EQ(a.links().size(), b.links().size());
   for (size_t i = 0; i < a.points().size(); ++i) {
@@ -505,7 +503,7 @@ TEST(Planner, SceneSimulationBlockSetsTheDefaults) {
 TEST(Planner, ForcedFlagsAndBadValuesAreClearErrors) {
   std::string out;
   const std::string sc = test::sourceDir() + "/resources/scenes/brick.json";
-  EXPECT_EQ(test::runBtfsim("plan " + sc + " --interreflection maybe", &out), 1);
+  EXPECT_EQ(test::runBtfsim("plan " + sc + " --interreflection maybe", &out), 2);  // usage
   EXPECT_NE(out.find("--interreflection"), std::string::npos) << out;
   EXPECT_EQ(test::runBtfsim("plan " + sc + " --colour off", &out), 1);
   EXPECT_NE(out.find("coloured"), std::string::npos) << out;

@@ -1,0 +1,276 @@
+// The declarations of every command (request.h): names, types, ranges, defaults and docs. The
+// CLI, docs/cli.md, the studio's forms and validation all read these tables.
+#include <btf/ops/request.h>
+
+#include <limits>
+
+namespace btf::ops {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+ParamDecl num(ParamType t, const std::string& n, double def, double lo, double hi,
+              const std::string& doc) {
+  ParamDecl d;
+  d.name = n;
+  d.type = t;
+  d.def = {def};
+  d.min = lo;
+  d.max = hi;
+  d.doc = doc;
+  return d;
+}
+ParamDecl in(const std::string& n, double def, double lo, double hi, const std::string& doc) {
+  return num(ParamType::Int, n, def, lo, hi, doc);
+}
+ParamDecl fl(const std::string& n, double def, double lo, double hi, const std::string& doc) {
+  return num(ParamType::Float, n, def, lo, hi, doc);
+}
+ParamDecl flag(const std::string& n, const std::string& doc) {
+  return num(ParamType::Bool, n, 0, 0, 1, doc);
+}
+ParamDecl str(const std::string& n, const std::string& def, const std::string& doc,
+              ParamType t = ParamType::String) {
+  ParamDecl d;
+  d.name = n;
+  d.type = t;
+  d.defStr = def;
+  d.doc = doc;
+  return d;
+}
+ParamDecl path(const std::string& n, const std::string& doc, bool required = true) {
+  ParamDecl d = str(n, "", doc, ParamType::Path);
+  d.required = required;
+  return d;
+}
+ParamDecl en(const std::string& n, const std::string& def, std::vector<std::string> choices,
+             const std::string& doc) {
+  ParamDecl d = str(n, def, doc, ParamType::Enum);
+  d.choices = std::move(choices);
+  return d;
+}
+
+ParamDecl excl(ParamDecl d) {
+  d.minExclusive = true;
+  return d;
+}
+
+using Opts = std::vector<ParamDecl>;
+void append(Opts& a, const Opts& b) {
+  a.insert(a.end(), b.begin(), b.end());
+}
+
+// Scene-backed simulation options: absent from a request unless given (the scene decides).
+Opts sceneOptions() {
+  return {
+      str("dirs", "", "direction set: bonn81, ubo151 or a θ×φ grid like 16x32 (scene)"),
+      str("texels", "", "texels: N or NUxNV (scene)"),
+      in("spp", 1, 1, 64, "K: K×K jittered rays per texel (scene)"),
+      en("shadows", "map", {"map", "rays"}, "self-shadowing: shadow map or exact rays (scene)")};
+}
+const std::set<std::string> kSceneKeys = {"dirs", "texels", "spp", "shadows", "seed", "method"};
+
+Opts effectOptions() {
+  return {
+      en("method", "network", {"network", "pt"},
+         "network (direct + point-network GI) or pt (path traced) (scene)"),
+      en("self_shadowing", "auto", {"auto", "on", "off"}, "self-shadowing: planner or forced"),
+      en("interreflection", "auto", {"auto", "on", "off"}, "inter-reflection: planner or forced"),
+      in("bounces", 0, 0, 64, "P: reflections per path (1 = direct only; 0 = from the plan)"),
+      fl("epsilon", 0.01, 1e-6, 0.5, "planner: energy fraction below which an order is dropped"),
+      en("glossy_indirect", "auto", {"auto", "on", "off"},
+         "glossy lobes reflect the indirect light at the texels"),
+      en("colour", "auto", {"auto", "on", "off"}, "RGB (on) or one channel for grey scenes (off)"),
+      en("vmf", "auto", {"auto", "on", "off"}, "store the visibility map"),
+      in("network_voxels", 0, 0, 1024, "network density, voxels per side (0 = one per texel)"),
+      in("links", 16, 1, 256, "network links per point"),
+      in("gather", 4, 1, 16, "N1: network points per direct hit"),
+      in("paths", 16, 1, 4096, "--method pt: paths per texel sample"),
+  };
+}
+
+Opts codecOptions(bool withName) {
+  Opts o;
+  if (withName)
+    o.push_back(en("codec", "nmf", {"nmf", "svd", "perview", "lpca"},
+                   "nmf (per-texel NMF + PCA), svd, perview or lpca"));
+  append(o, {
+                en("colour_model", "ycc", {"ycc", "rgb"},
+                   "rgb or ycc (luminance + two chroma channels)"),
+                in("components", 0, 0, 4096, "PCA components (0 = from the target)"),
+                fl("target_rmse", 0, 0, 1, "relative RMSE target, e.g. 0.05 (0 = the default 5 %)"),
+                fl("target_ratio", 0, 0, 1e6, "compression ratio target, e.g. 300 (0 = none)"),
+                excl(fl("beta", 0.995, 0, 1, "nmf: β of the per-texel rank rule (eq. 3.21)")),
+                en("beta_mode", "energy", {"energy", "singular"},
+                   "nmf: energy (Σσ²) or singular (Σσ, the thesis)"),
+                en("solver", "hals", {"hals", "mu"},
+                   "nmf: hals or mu (Lee-Seung multiplicative updates)"),
+                in("max_rank", 8, 1, 64, "nmf: largest per-texel rank"),
+                in("nmf_iterations", 60, 1, 10000, "nmf: iterations per texel at most"),
+                in("train_texels", 256, 1, 1 << 20, "svd/perview/lpca: training texels"),
+                in("clusters", 8, 1, 4096, "lpca: k-means clusters"),
+                flag("f32", "store float32 arrays instead of float16"),
+            });
+  return o;
+}
+
+std::vector<CommandDecl> build() {
+  std::vector<CommandDecl> cs;
+  {
+    CommandDecl c{"simulate",
+                  "simulate a raw BTF into a store file (or, with --compress, "
+                  "straight into a codec)",
+                  {},
+                  {"scene"},
+                  kSceneKeys};
+    c.options = {path("scene", "scene file (JSON)"),
+                 path("output", "output: .btf store, or .cbtf with --compress (atomic)")};
+    append(c.options, sceneOptions());
+    append(c.options,
+           {fl("bias", 1, 0, 1000, "shadow-map bias scale"),
+            in("seed", 1, 0, 1 << 30, "jitter seed (scene)"),
+            str("memory_budget", "4G", "memory budget, e.g. 4G, 512M"),
+            in("chunk_texels", 0, 0, 1 << 30,
+               "at most this many texels per chunk (resume granularity; 0 = from the budget)")});
+    append(c.options, effectOptions());
+    append(c.options, {str("compress", "",
+                           "compress while simulating with this codec (nmf, svd, perview, lpca); "
+                           "the output is a .cbtf and no raw BTF is written")});
+    append(c.options, codecOptions(false));
+    append(c.options, {flag("resume", "continue an interrupted run from OUTPUT.partial")});
+    cs.push_back(c);
+  }
+  {
+    CommandDecl c{"compress", "compress a raw BTF store into a .cbtf", {}, {"input"}, {}};
+    c.options = {path("input", "raw BTF store"),
+                 path("output", "compressed file (.cbtf, written atomically)")};
+    append(c.options, codecOptions(true));
+    append(c.options, {str("memory_budget", "8G", "memory budget, e.g. 8G"),
+                       flag("compare", "also measure the error against the input")});
+    cs.push_back(c);
+  }
+  {
+    CommandDecl c{"compare", "error between two BTFs (raw or compressed)", {}, {"a", "b"}, {}};
+    c.options = {path("a", "reference BTF (.btf or .cbtf)"), path("b", "BTF to measure"),
+                 str("maps", "", "folder for per-texel and per-direction error maps"),
+                 in("worst", 10, 0, 1000, "how many worst texels and directions to list")};
+    cs.push_back(c);
+  }
+  {
+    CommandDecl c{
+        "export", "export a BTF to the Bonn UBO2003/UBO2014 or MERL formats", {}, {"input"}, {}};
+    c.options = {path("input", "BTF (.btf or .cbtf)"),
+                 en("format", "ubo2014", {"ubo2003", "ubo2014", "merl"}, "export format"),
+                 path("output", "folder (ubo2003) or file"),
+                 in("components", 16, 1, 4096, "ubo2014: components per channel"),
+                 in("phi_samples", 16, 1, 1024, "merl: half-vector azimuths averaged per bin")};
+    c.options[1].required = true;
+    cs.push_back(c);
+  }
+  {
+    CommandDecl c{"plan",
+                  "print the effect plan of a scene with reasons and savings",
+                  {},
+                  {"scene"},
+                  kSceneKeys};
+    c.options = {path("scene", "scene file")};
+    append(c.options, sceneOptions());
+    append(c.options, effectOptions());
+    cs.push_back(c);
+  }
+  {
+    CommandDecl c{"bench",
+                  "benchmark the simulator (compute only, nothing written)",
+                  {},
+                  {"scene"},
+                  {"method"}};
+    c.options = {path("scene", "scene file"),
+                 str("texels", "64", "texels"),
+                 str("dirs", "16x32", "direction set"),
+                 in("spp", 1, 1, 64, "K"),
+                 str("shadows", "map,rays", "comma-separated shadow modes to measure"),
+                 in("repeat", 3, 1, 1000, "runs per mode (the median is reported)")};
+    append(c.options, effectOptions());
+    cs.push_back(c);
+  }
+  {
+    CommandDecl c{
+        "study", "accuracy vs time: sweep the knobs against a path tracer", {}, {"scene"}, {}};
+    c.options = {
+        path("scene", "scene file"),
+        path("output", "output folder (study.csv, study.md, study.svg)"),
+        str("texels", "32", "texels of every run"),
+        str("method", "network", "methods: network, pt (comma-separated; first = base)"),
+        str("paths", "1", "pt: paths per texel sample"),
+        str("dirs", "bonn81,8x16,16x32", "direction sets (first = base)"),
+        str("spp", "1,2", "K values"),
+        str("shadows", "map,rays", "shadow modes: map, rays"),
+        str("network_voxels", "0,16,64", "network densities (0 = one per texel)"),
+        str("gather", "4,1,8", "N1 values"),
+        str("links", "16,8,32", "links per network point"),
+        str("bounces", "3,1,2,4", "path lengths P (1 = direct only)"),
+        flag("grid", "full product of the lists instead of one knob at a time"),
+        in("reference_spp", 256, 8, 4096, "reference paths per axis per probe pair"),
+        in("image_spp", 4, 1, 64, "K of the full images compared per configuration"),
+        in("image_paths", 8, 1, 4096, "reference paths per texel sample of the full images"),
+        str("codecs", "", "compression knobs: codecs to compare on the base configuration's BTF"),
+        str("betas", "0.995", "nmf β values (comma-separated)"),
+        str("components", "0", "component counts (0 = from the target)"),
+        fl("target_ratio", 0, 0, 1e6, "codec target ratio (with --codecs)"),
+        fl("target_rmse", 0, 0, 1, "codec target relative RMSE"),
+        en("colour_model", "ycc", {"ycc", "rgb"}, "rgb or ycc")};
+    cs.push_back(c);
+  }
+  {
+    CommandDecl c{
+        "brdf", "texel-averaged aBRDF at direction pairs, without a BTF", {}, {"scene"}, {}};
+    c.options = {path("scene", "scene file"),
+                 str("pair", "", "θi,φi,θo,φo in degrees; several separated by ';'"),
+                 str("pairs", "", "CSV file of θi,φi,θo,φo lines"),
+                 in("spp", 64, 1, 4096, "samples per axis over the tile (N×N rays per pair)"),
+                 en("method", "pt", {"pt", "direct"}, "pt (path traced, every effect) or direct"),
+                 in("bounces", 0, 0, 1024, "pt: reflections per path (0 = unbounded)"),
+                 in("paths", 1, 1, 65536, "pt: paths per sample position")};
+    cs.push_back(c);
+  }
+  {
+    CommandDecl c{"slice",
+                  "an image of a BTF: spatial (view, light) or a hemisphere of views",
+                  {},
+                  {"btf"},
+                  {}};
+    c.options = {path("btf", "BTF (.btf or .cbtf)"),
+                 path("output", "image file: .exr (linear, with metadata) or .png (sRGB)"),
+                 str("view", "", "θ,φ of the view (degrees): spatial image"),
+                 str("light", "", "θ,φ of the light (degrees)"),
+                 str("texel", "", "u,v or avg: hemisphere image of aBRDF over views"),
+                 fl("exposure", 1, 1e-6, 1e6, "PNG: multiplies π·aBRDF before the sRGB curve"),
+                 in("size", 256, 8, 8192, "hemisphere image size in pixels")};
+    c.options[3].required = true;
+    cs.push_back(c);
+  }
+  {
+    CommandDecl c{"info",
+                  "print a BTF's header (raw or compressed) and verify every checksum",
+                  {},
+                  {"btf"},
+                  {}};
+    c.options = {path("btf", "BTF (.btf or .cbtf)")};
+    cs.push_back(c);
+  }
+  for (auto& c : cs)
+    append(c.options, {in("threads", 0, 0, 4096, "worker threads (0 = every core)"),
+                       flag("quiet", "no progress bars or notes on stderr"),
+                       flag("json", "print the report as JSON on stdout")});
+  return cs;
+}
+
+}  // namespace
+
+const std::vector<CommandDecl>& commands() {
+  static const std::vector<CommandDecl> cs = build();
+  return cs;
+}
+
+}  // namespace btf::ops

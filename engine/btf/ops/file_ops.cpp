@@ -1,0 +1,383 @@
+// Use cases on BTF files: compress, compare, export, info and slice. Every reader goes through
+// openBtf, so each accepts a raw store or a compressed file alike.
+#include <btf/compress/compress.h>
+#include <btf/compress/export.h>
+#include <btf/core/sysinfo.h>
+#include <btf/directions/direction_set.h>
+#include <btf/io/image_io.h>
+#include <btf/ops/internal.h>
+#include <btf/store/btf_store.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+namespace btf::ops::detail {
+
+void warnTarget(const Call& c, const CompressedBtf& b) {
+  const json params = json::parse(b.paramsJson), stats = json::parse(b.statsJson);
+  const double target = params.value("target_ratio", 0.0) > 0  ? 0.0
+                        : params.value("target_rmse", 0.0) > 0 ? params.value("target_rmse", 0.0)
+                                                               : 0.05;
+  if (target <= 0) return;
+  const double stage = stats.value("nmf_relative_rmse", stats.value("training_relative_rmse", 0.0));
+  if (stage > target * 1.05)
+    c.warn(format("the %s stage alone leaves a relative RMSE of %.1f %% (target %.1f %%)%s",
+                  b.codec.c_str(), 100 * stage, 100 * target,
+                  b.codec == "nmf" ? ": the per-texel rank cap binds — raise --max-rank"
+                                   : " on the training texels: raise --train-texels"));
+}
+
+std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss) {
+  const double raw = double(b.info.texels()) * b.info.nDirs() * b.info.nDirs() * 12.0;
+  return format(
+      "  codec %s (%s): %s -> %s, ratio 1:%.0f, %s, peak memory %s\n  settings %s\n"
+      "  stats %s\n",
+      b.codec.c_str(), b.colour.c_str(), formatBytes(raw).c_str(),
+      formatBytes(double(b.fileBytes())).c_str(), b.ratio(), formatSeconds(seconds).c_str(),
+      formatBytes(double(rss)).c_str(), b.paramsJson.c_str(), b.statsJson.c_str());
+}
+
+namespace {
+
+std::string errorText(const ErrorReport& e) {
+  return format(
+      "RMSE %.6g (1/sr), relative RMSE %.3f %%, PSNR %.2f dB (peak %.5g), max |error| "
+      "%.5g",
+      e.rmse, 100 * e.relRmse, e.psnr, e.peak, e.maxAbs);
+}
+
+}  // namespace
+
+void compress(const Call& c) {
+  const Request& r = c.r;
+  CodecSettings cs = codecSettings(r, r.s("codec"));
+  cs.memoryBudget = parseBytes(r.s("memory_budget"));
+  CompressReport rep;
+  const CompressedBtf b = compressStore(r.s("input"), cs, c.progress(), c.ctx.cancel, &rep);
+  c.ctx.check("encoder");
+  writeCompressed(r.s("output"), b);
+  c.rep.outputs.push_back(r.s("output"));
+  warnTarget(c, b);
+  json& j = c.rep.json;
+  j["input"] = r.s("input");
+  j["output"] = r.s("output");
+  j["codec"] = json::parse(b.paramsJson);
+  j["stats"] = json::parse(b.statsJson);
+  j["seconds"] = rep.seconds;
+  j["train_seconds"] = rep.trainSeconds;
+  j["encode_seconds"] = rep.encodeSeconds;
+  j["finish_seconds"] = rep.finishSeconds;
+  j["raw_bytes"] = double(b.info.texels()) * b.info.nDirs() * b.info.nDirs() * 12.0;
+  j["compressed_bytes"] = rep.fileBytes;
+  j["ratio"] = rep.ratio;
+  j["peak_memory_bytes"] = rep.peakRssBytes;
+  c.rep.text = "wrote " + r.s("output") + "\n" + compressedText(b, rep.seconds, rep.peakRssBytes);
+  c.rep.summary = format("wrote %s, ratio 1:%.0f in %s", r.s("output").c_str(), b.ratio(),
+                         formatSeconds(rep.seconds).c_str());
+  if (r.b("compare")) {
+    const auto ref = openBtf(r.s("input"));
+    const auto dec = makeDecoder(b);
+    const ErrorReport e = compareBtfs(*ref, *dec, c.progress(), 10, c.ctx.cancel);
+    j["error"] = json::parse(errorReportJson(e));
+    c.rep.text += "  error: " + errorText(e) + "\n";
+    c.rep.summary += format(", relative RMSE %.2f %%", 100 * e.relRmse);
+  }
+}
+
+void compare(const Call& c) {
+  const Request& r = c.r;
+  const auto A = openBtf(r.s("a"));
+  const auto B = openBtf(r.s("b"));
+  const ErrorReport e = compareBtfs(*A, *B, c.progress(), r.i("worst"), c.ctx.cancel);
+  if (!r.s("maps").empty()) writeErrorMaps(e, r.s("maps"));
+  auto ratioOf = [](const std::string& p) {
+    return isCompressedFile(p) ? readCompressed(p).ratio() : 1.0;
+  };
+  const double ratioA = ratioOf(r.s("a")), ratioB = ratioOf(r.s("b"));
+  json& j = c.rep.json;
+  j = json::parse(errorReportJson(e));
+  j["a"] = {{"path", r.s("a")}, {"kind", A->kind()}, {"ratio", ratioA}};
+  j["b"] = {{"path", r.s("b")}, {"kind", B->kind()}, {"ratio", ratioB}};
+  if (!r.s("maps").empty()) j["maps"] = r.s("maps");
+  std::string t = format("A %s (%s, ratio 1:%.0f)\nB %s (%s, ratio 1:%.0f)\n", r.s("a").c_str(),
+                         A->kind().c_str(), ratioA, r.s("b").c_str(), B->kind().c_str(), ratioB);
+  t += errorText(e) + "\nworst texels (u, v: RMSE):";
+  for (const auto& w : e.worstTexels)
+    t += format(" (%lld, %lld: %.4g)", (long long)(w.index % e.nu), (long long)(w.index / e.nu),
+                w.rmse);
+  t += "\nworst directions (view θ,φ / light θ,φ: RMSE):";
+  const auto& dirs = A->info().dirsDeg;
+  for (const auto& w : e.worstDirections) {
+    const auto& v = dirs[size_t(w.index / e.nDirs)];
+    const auto& l = dirs[size_t(w.index % e.nDirs)];
+    t += format(" (%.1f,%.1f / %.1f,%.1f: %.4g)", v[0], v[1], l[0], l[1], w.rmse);
+  }
+  t += "\n";
+  if (!r.s("maps").empty())
+    t += "maps: " + r.s("maps") + "/texel_rmse.{exr,png}, " + r.s("maps") +
+         "/direction_rmse.{exr,png}\n";
+  c.rep.text = t;
+  c.rep.summary = format("relative RMSE %.3f %%, PSNR %.2f dB", 100 * e.relRmse, e.psnr);
+}
+
+void exportBtf(const Call& c) {
+  const Request& r = c.r;
+  const auto d = openBtf(r.s("input"));
+  const std::string& fmt = r.s("format");
+  const std::string& out = r.s("output");
+  json& j = c.rep.json;
+  j["input"] = r.s("input");
+  j["format"] = fmt;
+  j["output"] = out;
+  c.rep.outputs.push_back(out);
+  if (fmt == "ubo2003") {
+    const int64_t n = exportUbo2003(*d, out, c.progress(), c.ctx.cancel);
+    j["images"] = n;
+    c.rep.text =
+        format("wrote %lld images and btf_export.json under %s\n", (long long)n, out.c_str());
+  } else if (fmt == "ubo2014") {
+    const Ubo2014Report e = exportUbo2014(*d, out, r.i("components"), c.progress(), c.ctx.cancel);
+    j["bytes"] = e.bytes;
+    j["components"] = {e.components[0], e.components[1], e.components[2]};
+    j["factorisation_relative_rmse"] = e.relRmse;
+    c.rep.text = format(
+        "wrote %s (%s): DFMF, colour model 0, fp16, components R %d G %d B %d, "
+        "factorisation relative RMSE %.3f %% (training texels)\n",
+        out.c_str(), formatBytes(double(e.bytes)).c_str(), e.components[0], e.components[1],
+        e.components[2], 100 * e.relRmse);
+  } else {
+    const MerlReport e = exportMerl(*d, out, r.i("phi_samples"), c.progress(), c.ctx.cancel);
+    j["bins"] = e.bins;
+    j["missing_bins"] = e.missingBins;
+    j["anisotropy"] = e.anisotropy;
+    c.rep.text = format(
+        "wrote %s: 90x90x180 bins, %lld missing (below the horizon), φh spread "
+        "%.1f %%\n",
+        out.c_str(), (long long)e.missingBins, 100 * e.anisotropy);
+    if (e.anisotropy > 0.1)
+      c.warn(
+          format("the texel-averaged aBRDF varies by %.0f %% over the half-vector azimuth; "
+                 "MERL is isotropic, so the export averages it away",
+                 100 * e.anisotropy));
+  }
+  c.rep.summary = "wrote " + out;
+}
+
+namespace {
+
+json directionsJson(const BtfInfo& I) {
+  return {{"set", I.directionSet}, {"count", I.nDirs()}, {"theta_phi_deg", I.dirsDeg}};
+}
+
+json parsedOrString(const std::string& s) {
+  if (s.empty()) return json::object();
+  try {
+    return json::parse(s);
+  } catch (const std::exception&) {
+    return s;
+  }
+}
+
+}  // namespace
+
+void info(const Call& c) {
+  const std::string& path = c.r.s("btf");
+  json& j = c.rep.json;
+  if (isCompressedFile(path)) {
+    const CompressedBtf b = readCompressed(path);  // verifies every checksum or throws
+    const BtfInfo& I = b.info;
+    j["path"] = path;
+    j["format"] = "compressed";
+    j["scene"] = I.sceneName;
+    j["scene_hash"] = I.sceneHash;
+    j["texels"] = {I.nu, I.nv};
+    j["directions"] = directionsJson(I);
+    j["file_bytes"] = b.fileBytes();
+    j["verified"] = true;
+    j["codec"] = b.codec;
+    j["colour"] = b.colour;
+    j["params"] = json::parse(b.paramsJson);
+    j["stats"] = json::parse(b.statsJson);
+    j["ratio"] = b.ratio();
+    json arrays = json::array();
+    for (const auto& x : b.arrays)
+      arrays.push_back({{"name", x.name},
+                        {"rows", x.rows},
+                        {"cols", x.cols},
+                        {"type", x.type == ArrayType::F16 ? "f16" : "f32"}});
+    j["arrays"] = arrays;
+    std::string t = format("%s: compressed BTF, codec %s (%s), %s, ratio 1:%.0f\n", path.c_str(),
+                           b.codec.c_str(), b.colour.c_str(),
+                           formatBytes(double(b.fileBytes())).c_str(), b.ratio());
+    t += format("  scene        %s (hash %s)\n  texels       %d x %d\n  directions   %s (%d)\n",
+                I.sceneName.c_str(), I.sceneHash.c_str(), I.nu, I.nv, I.directionSet.c_str(),
+                I.nDirs());
+    t += "  params       " + b.paramsJson + "\n  stats        " + b.statsJson + "\n";
+    for (const auto& x : b.arrays)
+      t += format("  array        %-18s %lld x %lld %s\n", x.name.c_str(), (long long)x.rows,
+                  (long long)x.cols, x.type == ArrayType::F16 ? "f16" : "f32");
+    t += "  checksums    all verified\n";
+    c.rep.text = t;
+    c.rep.summary = "verified " + path;
+    return;
+  }
+  BtfReader rd(path);
+  const BtfInfo& I = rd.info();
+  const auto v = rd.verify();
+  const bool ok = v.badChunks.empty() && v.vmfOk;
+  j["path"] = path;
+  j["format"] = "raw";
+  j["scene"] = I.sceneName;
+  j["scene_hash"] = I.sceneHash;
+  j["texels"] = {I.nu, I.nv};
+  j["directions"] = directionsJson(I);
+  j["file_bytes"] = rd.layout().totalBytes;
+  j["verified"] = ok;
+  j["tile_size"] = {I.Lx, I.Ly};
+  j["chunk_texels"] = I.chunkTexels;
+  j["chunks"] = I.chunks();
+  j["spp"] = I.spp;
+  j["shadows"] = I.shadows;
+  j["shadow_bias"] = I.shadowBias;
+  j["seed"] = I.seed;
+  j["plan"] = parsedOrString(I.plan);
+  j["has_vmf"] = I.hasVmf;
+  j["bad_chunks"] = v.badChunks;
+  j["vmf_ok"] = v.vmfOk;
+  std::string t = format("%s: raw BTF store, %s\n", path.c_str(),
+                         formatBytes(double(rd.layout().totalBytes)).c_str());
+  t += format("  scene        %s (hash %s)\n  tile         %g x %g\n  texels       %d x %d\n",
+              I.sceneName.c_str(), I.sceneHash.c_str(), I.Lx, I.Ly, I.nu, I.nv);
+  t += format("  directions   %s (%d, shared by view and light; %lld pairs)\n",
+              I.directionSet.c_str(), I.nDirs(), static_cast<long long>(I.nDirs()) * I.nDirs());
+  t += format("  settings     spp %d, shadows %s (bias %g), seed %llu\n", I.spp, I.shadows.c_str(),
+              I.shadowBias, static_cast<unsigned long long>(I.seed));
+  t += "  plan         " + I.plan + "\n";
+  t += format("  chunks       %d of %d texel(s)\n", I.chunks(), I.chunkTexels);
+  t += std::string("  checksums    ") + (ok ? "all verified\n" : "MISMATCH:");
+  if (!ok) {
+    for (int k : v.badChunks) t += format(" chunk %d", k);
+    if (!v.vmfOk) t += " visibility-map";
+    t += "\n";
+  }
+  c.rep.text = t;
+  if (!ok)
+    throw Error(path + ": corrupted: " + std::to_string(v.badChunks.size()) + " bad chunk(s)" +
+                (v.vmfOk ? "" : ", bad visibility map"));
+  c.rep.summary = "verified " + path;
+}
+
+void slice(const Call& c) {
+  const Request& r = c.r;
+  const auto d = openBtf(r.s("btf"));
+  const BtfInfo& I = d->info();
+  const DirectionSet dirs = DirectionSet::fromName(I.directionSet);
+  if (dirs.size() != I.nDirs())
+    throw Error(r.s("btf") + ": the direction set of the file does not match its header");
+  double tl, pl;
+  parseAnglePair(r.s("light"), "--light", &tl, &pl);
+  const auto lw = dirs.interpolate(deg2rad(tl), deg2rad(pl));
+  const float scale = float(kPi * r.f("exposure"));
+  const std::string& view = r.s("view");
+  const std::string& texel = r.s("texel");
+  const std::string& out = r.s("output");
+  if (view.empty() == texel.empty())
+    throw Error(
+        "slice needs exactly one of --view θ,φ (spatial image) or --texel u,v|avg (hemisphere)");
+  const int n = I.nDirs();
+  json& j = c.rep.json;
+  j["input"] = r.s("btf");
+  j["output"] = out;
+  j["light_theta_phi_deg"] = {tl, pl};
+  c.rep.outputs.push_back(out);
+  ImageMetadata meta = {{"units", "aBRDF, 1/sr, linear RGB"},
+                        {"light_theta_phi_deg", format("%.10g,%.10g", tl, pl)},
+                        {"scene", I.sceneName},
+                        {"scene_hash", I.sceneHash},
+                        {"source", r.s("btf")}};
+  if (!view.empty()) {
+    double tv, pv;
+    parseAnglePair(view, "--view", &tv, &pv);
+    const auto vw = dirs.interpolate(deg2rad(tv), deg2rad(pv));
+    std::vector<float> img(size_t(I.texels()) * 3, 0.f);
+    parallelForChunks(
+        I.texels(), 256,
+        [&](int64_t t0, int64_t t1) {
+          for (int64_t t = t0; t < t1; ++t)
+            for (const auto& v : vw)
+              for (const auto& l : lw) {
+                const auto val = d->value(t, v.index, l.index);
+                const float w = float(v.weight * l.weight);
+                for (int k = 0; k < 3; ++k) img[size_t(t) * 3 + size_t(k)] += w * val[size_t(k)];
+              }
+        },
+        c.ctx.cancel);
+    c.ctx.check("slice");
+    meta.push_back({"view_theta_phi_deg", format("%.10g,%.10g", tv, pv)});
+    writeRgbImage(out, I.nu, I.nv, img, scale, true, meta);
+    j["kind"] = "spatial";
+    j["view_theta_phi_deg"] = {tv, pv};
+    j["size"] = {I.nu, I.nv};
+    c.rep.text = format("wrote %s: %dx%d texels, view (%g, %g), light (%g, %g) degrees\n",
+                        out.c_str(), I.nu, I.nv, tv, pv, tl, pl);
+    c.rep.summary = "wrote " + out;
+    return;
+  }
+  // The texel's (or the tile average's) views × lights matrix, reduced to the chosen light.
+  std::vector<float> perView(size_t(n) * 3, 0.f);
+  std::vector<float> m(size_t(n) * n * 3);
+  auto accumulate = [&](const float* mm, float w) {
+    for (int v = 0; v < n; ++v)
+      for (const auto& l : lw)
+        for (int k = 0; k < 3; ++k)
+          perView[size_t(v) * 3 + size_t(k)] +=
+              w * float(l.weight) * mm[(size_t(v) * size_t(n) + size_t(l.index)) * 3 + size_t(k)];
+  };
+  std::string what;
+  if (texel == "avg") {
+    const float w = 1.0f / float(I.texels());
+    for (int64_t t = 0; t < I.texels(); ++t) {
+      if (t % 64 == 0) c.ctx.check("slice");
+      d->texel(t, m.data());
+      accumulate(m.data(), w);
+    }
+    what = "tile average";
+  } else {
+    int u = 0, v = 0;
+    char comma = 0, extra = 0;
+    if (std::sscanf(texel.c_str(), "%d%c%d%c", &u, &comma, &v, &extra) != 3 || comma != ',')
+      throw Error("invalid --texel '" + texel + "': expected u,v (texel indices) or avg");
+    if (u < 0 || v < 0 || u >= I.nu || v >= I.nv)
+      throw Error("invalid --texel '" + texel + "': outside the " + std::to_string(I.nu) + "x" +
+                  std::to_string(I.nv) + " texel grid");
+    d->texel(int64_t(v) * I.nu + u, m.data());
+    accumulate(m.data(), 1.0f);
+    what = "texel " + texel;
+  }
+  // Orthographic hemisphere: pixel (x, y) in the unit disk ↦ view with sinθ = r, φ = atan2(y, x);
+  // +x to the right, +y up; outside the disk is black.
+  const int S = r.i("size");
+  std::vector<float> img(size_t(S) * S * 3, 0.f);
+  for (int jj = 0; jj < S; ++jj)
+    for (int i = 0; i < S; ++i) {
+      const double x = (i + 0.5) / S * 2 - 1, y = (jj + 0.5) / S * 2 - 1;
+      const double rr = std::sqrt(x * x + y * y);
+      if (rr > 1) continue;
+      const auto vw = dirs.interpolate(std::asin(std::min(rr, 1.0)), std::atan2(y, x));
+      for (const auto& v : vw)
+        for (int k = 0; k < 3; ++k)
+          img[(size_t(jj) * S + size_t(i)) * 3 + size_t(k)] +=
+              float(v.weight) * perView[size_t(v.index) * 3 + size_t(k)];
+    }
+  meta.push_back({"texel", texel});
+  writeRgbImage(out, S, S, img, scale, true, meta);
+  j["kind"] = "hemisphere";
+  j["texel"] = texel;
+  j["size"] = {S, S};
+  c.rep.text = format("wrote %s: aBRDF over views of the %s, light (%g, %g) degrees\n", out.c_str(),
+                      what.c_str(), tl, pl);
+  c.rep.summary = "wrote " + out;
+}
+
+}  // namespace btf::ops::detail

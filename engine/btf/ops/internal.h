@@ -1,0 +1,53 @@
+// Shared by the use-case files of btf/ops (not part of the engine's public surface).
+#pragma once
+#include <btf/ops/ops.h>
+#include <btf/scene/scene.h>
+
+#include <cstdarg>
+#include <string>
+
+namespace btf::ops::detail {
+
+using json = nlohmann::ordered_json;
+
+/// printf into a std::string.
+std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+
+/// What every use case gets: the request, the context (progress already folded with --quiet),
+/// the note sink and the report to fill.
+struct Call {
+  const Request& r;
+  const RunContext& ctx;
+  const NoteSink& note;
+  Report& rep;
+  const Scene* preloaded = nullptr;
+  /// The request's scene: the caller's document when given, else the file.
+  Scene scene() const;
+  bool progress() const { return ctx.progress && !r.b("quiet"); }
+  void notice(std::string s) const {
+    while (!s.empty() && s.back() == '\n') s.pop_back();
+    rep.notes.push_back(s);
+    if (note) note(s);
+  }
+  void warn(const std::string& s) const {
+    rep.warnings.push_back(s);
+    if (note) note("btfsim: warning: " + s);
+  }
+};
+
+void simulate(const Call& c);
+void plan(const Call& c);
+void bench(const Call& c);
+void brdf(const Call& c);
+void compress(const Call& c);
+void compare(const Call& c);
+void exportBtf(const Call& c);
+void info(const Call& c);
+void slice(const Call& c);
+void study(const Call& c);
+
+/// "1,2,3" → items; throws naming the option when empty.
+std::vector<std::string> splitList(const std::string& s, const std::string& what);
+std::vector<int> intList(const std::string& s, const std::string& what, int lo, int hi);
+
+}  // namespace btf::ops::detail

@@ -1,0 +1,55 @@
+// The use cases, run: one function per request, one run context, one report. The CLI turns argv
+// into a Request and the report into text or JSON; the studio turns a form into a Request and
+// the report into a panel. Nothing above this floor chains the simulator, the encoders or the
+// writers (docs/architecture.md).
+#pragma once
+#include <btf/core/run_context.h>
+#include <btf/ops/request.h>
+
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace btf {
+struct SimOptions;
+struct Scene;
+struct CodecSettings;
+}  // namespace btf
+
+namespace btf::ops {
+
+/// What a use case returns: `json` is what `--json` prints (its schema is
+/// docs/schemas/COMMAND.json), `text` the human summary for stdout, `notes` lines for stderr
+/// (the plan, the estimate, warnings), `outputs` the files written.
+struct Report {
+  std::string command;
+  nlohmann::ordered_json json = nlohmann::ordered_json::object();
+  std::string text;
+  std::vector<std::string> notes, warnings, outputs;
+  /// One line for the studio's job list.
+  std::string summary;
+};
+
+/// Runs a request (validated first). Cancellation throws btf::Cancelled and leaves no output
+/// and no .partial behind (the studio's "stop" keeps the .partial: ctx.keepPartial).
+Report run(const Request& r, const RunContext& ctx);
+
+/// Receives the notes (plan, estimate) as soon as they are known, before the long work: the CLI
+/// prints them to stderr, the studio shows them in the job.
+using NoteSink = std::function<void(const std::string&)>;
+/// `scene`, when given, is used instead of loading the request's scene file (the studio's edited
+/// document; relative mesh paths were resolved when it was parsed).
+Report run(const Request& r, const RunContext& ctx, const NoteSink& notes,
+           const Scene* scene = nullptr);
+
+// The translations every use case shares (tests call them too).
+/// The scene's simulation block with the request's scene-backed options applied.
+SimOptions simOptions(const Scene& scene, const Request& r);
+CodecSettings codecSettings(const Request& r, const std::string& codec);
+/// "64" → (64, 64); "64x32" → (64, 32). Throws btf::Error naming the text.
+void parseTexels(const std::string& s, int* nu, int* nv);
+/// "30,45" → (30, 45). Throws btf::Error naming `what` and the text.
+void parseAnglePair(const std::string& s, const std::string& what, double* theta, double* phi);
+
+}  // namespace btf::ops

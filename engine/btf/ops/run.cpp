@@ -1,0 +1,197 @@
+// The front of the use-case floor: validation, the per-run thread arena, and the one outcome of
+// a cancel (no output, no .partial left unless the caller keeps it for a resume).
+#include <btf/compress/codec.h>
+#include <btf/core/sysinfo.h>
+#include <btf/ops/internal.h>
+#include <btf/scene/scene.h>
+#include <btf/sim/simulator.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+namespace btf::ops {
+
+namespace fs = std::filesystem;
+
+namespace detail {
+
+std::string format(const char* fmt, ...) {
+  va_list a;
+  va_start(a, fmt);
+  va_list b;
+  va_copy(b, a);
+  const int n = std::vsnprintf(nullptr, 0, fmt, a);
+  va_end(a);
+  std::string s(size_t(std::max(0, n)), '\0');
+  std::vsnprintf(s.data(), s.size() + 1, fmt, b);
+  va_end(b);
+  return s;
+}
+
+std::vector<std::string> splitList(const std::string& s, const std::string& what) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, ','))
+    if (!item.empty()) out.push_back(item);
+  if (out.empty()) throw Error(what + ": empty list");
+  return out;
+}
+
+std::vector<int> intList(const std::string& s, const std::string& what, int lo, int hi) {
+  std::vector<int> out;
+  for (const auto& t : splitList(s, what)) {
+    char* end = nullptr;
+    const long v = std::strtol(t.c_str(), &end, 10);
+    if (*end || v < lo || v > hi)
+      throw Error(what + ": value '" + t + "' must be an integer in " + std::to_string(lo) + ".." +
+                  std::to_string(hi));
+    out.push_back(int(v));
+  }
+  return out;
+}
+
+}  // namespace detail
+
+void parseTexels(const std::string& s, int* nu, int* nv) {
+  int a = 0, b = 0;
+  char x = 0, extra = 0;
+  const int n = std::sscanf(s.c_str(), "%d%c%d%c", &a, &x, &b, &extra);
+  if (n == 1)
+    b = a;
+  else if (!(n == 3 && (x == 'x' || x == 'X')))
+    throw Error("invalid --texels '" + s + "': expected N or NUxNV, e.g. 64 or 64x32");
+  if (a < 1 || b < 1 || a > 16384 || b > 16384)
+    throw Error("invalid --texels '" + s + "': each count must be between 1 and 16384");
+  *nu = a;
+  *nv = b;
+}
+
+void parseAnglePair(const std::string& s, const std::string& what, double* theta, double* phi) {
+  std::istringstream in(s);
+  char comma = 0;
+  std::string rest;
+  if (!(in >> *theta >> comma >> *phi) || comma != ',' || (in >> rest))
+    throw Error("invalid " + what + " '" + s + "': expected θ,φ in degrees, e.g. 30,45");
+  if (!std::isfinite(*theta) || !std::isfinite(*phi) || *theta < 0 || *theta >= 90)
+    throw Error("invalid " + what + " '" + s + "': θ must be in [0, 90) degrees");
+}
+
+namespace {
+
+Toggle toggle(const Request& r, const std::string& k) {
+  return parseToggle(r.s(k), optionName(r.decl(), k));
+}
+
+}  // namespace
+
+SimOptions simOptions(const Scene& scene, const Request& r) {
+  SimOptions o = optionsFromScene(scene);
+  if (r.has("texels") && !r.s("texels").empty()) parseTexels(r.s("texels"), &o.nu, &o.nv);
+  if (r.has("dirs") && !r.s("dirs").empty()) o.directions = r.s("dirs");
+  if (r.has("spp")) o.spp = r.i("spp");
+  if (r.has("shadows") && r.s("shadows").find(',') == std::string::npos)
+    o.shadows = parseShadowMode(r.s("shadows"));
+  if (r.has("seed")) o.seed = uint64_t(r.i("seed"));
+  if (r.has("bias")) o.shadowBias = float(r.f("bias"));
+  if (r.has("method")) o.method = r.s("method");
+  if (r.decl().find("self_shadowing")) {
+    o.plan.selfShadowing = toggle(r, "self_shadowing");
+    if (r.given("interreflection")) o.plan.interreflection = toggle(r, "interreflection");
+    o.plan.colour = toggle(r, "colour");
+    o.plan.glossyIndirect = toggle(r, "glossy_indirect");
+    o.plan.vmf = toggle(r, "vmf");
+    const int bounces = r.i("bounces");
+    if (bounces > 0) {
+      o.plan.bounces = bounces;
+      if (bounces > 1 && o.plan.interreflection == Toggle::Auto)
+        o.plan.interreflection = Toggle::On;
+      if (bounces == 1) o.plan.interreflection = Toggle::Off;
+    }
+    o.plan.epsilon = r.f("epsilon");
+    const int voxels = r.i("network_voxels");
+    if (voxels == 1) throw Error("--network-voxels: must be 0 (one per texel) or in 2..1024");
+    if (voxels != 0) o.network.voxels = voxels;
+    o.network.links = r.i("links");
+    o.network.gather = r.i("gather");
+    o.ptPaths = r.i("paths");
+  }
+  if (r.has("chunk_texels")) o.maxChunkTexels = r.i("chunk_texels");
+  if (r.has("memory_budget")) o.memoryBudget = parseBytes(r.s("memory_budget"));
+  if (r.has("resume")) o.resume = r.b("resume");
+  return o;
+}
+
+CodecSettings codecSettings(const Request& r, const std::string& codec) {
+  CodecSettings s;
+  s.codec = codec;
+  s.colour = r.s("colour_model");
+  s.components = r.has("components") && r.decl().find("components")->type == ParamType::Int
+                     ? r.i("components")
+                     : 0;
+  s.targetRmse = r.f("target_rmse");
+  s.targetRatio = r.f("target_ratio");
+  if (r.has("beta")) {
+    s.beta = r.f("beta");
+    s.betaMode = la::betaModeFromName(r.s("beta_mode"));
+    s.solver = la::nmfSolverFromName(r.s("solver"));
+    s.maxRank = r.i("max_rank");
+    s.nmfIterations = r.i("nmf_iterations");
+    s.trainTexels = r.i("train_texels");
+    s.clusters = r.i("clusters");
+    s.half = !r.b("f32");
+  }
+  validate(s);
+  return s;
+}
+
+Report run(const Request& r, const RunContext& ctx) {
+  return run(r, ctx, nullptr);
+}
+
+Scene detail::Call::scene() const {
+  return preloaded ? *preloaded : loadScene(r.s("scene"));
+}
+
+Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, const Scene* scene) {
+  r.validate();
+  RunContext ctx = ctxIn;
+  if (r.given("threads")) ctx.threads = r.i("threads");
+  Report rep;
+  rep.command = r.command();
+  const detail::Call c{r, ctx, notes, rep, scene};
+  // What this run may leave behind when it is cancelled: its output (and the .partial).
+  std::string out;
+  for (const char* k : {"output"})
+    if (r.has(k)) out = r.s(k);
+  const bool outExisted = !out.empty() && fs::exists(out);
+  try {
+    withThreads(ctx.threads, [&] {
+      const std::string& n = r.command();
+      if (n == "simulate") return detail::simulate(c);
+      if (n == "plan") return detail::plan(c);
+      if (n == "bench") return detail::bench(c);
+      if (n == "brdf") return detail::brdf(c);
+      if (n == "compress") return detail::compress(c);
+      if (n == "compare") return detail::compare(c);
+      if (n == "export") return detail::exportBtf(c);
+      if (n == "info") return detail::info(c);
+      if (n == "slice") return detail::slice(c);
+      if (n == "study") return detail::study(c);
+      throw Error("command '" + n + "' has no use case");
+    });
+  } catch (const Cancelled&) {
+    if (!out.empty()) {
+      std::error_code ec;
+      if (!ctx.keepPartial) fs::remove(out + ".partial", ec);
+      if (!outExisted) fs::remove_all(out, ec);
+    }
+    throw;
+  }
+  rep.json["request"] = nlohmann::ordered_json::parse(r.toJson())["options"];
+  return rep;
+}
+
+}  // namespace btf::ops

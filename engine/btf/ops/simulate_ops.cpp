@@ -1,0 +1,407 @@
+// Use cases of the simulator: simulate (into a store, or streamed into a codec), plan, bench and
+// brdf. The only place where the simulator's chunks meet an encoder and a writer.
+#include <btf/compress/compress.h>
+#include <btf/core/sysinfo.h>
+#include <btf/ops/internal.h>
+#include <btf/scene/scene.h>
+#include <btf/sim/brdf_probe.h>
+#include <btf/sim/path_tracer.h>
+#include <btf/sim/simulator.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace btf::ops::detail {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+std::string planText(const EffectPlan& p) {
+  std::string s;
+  for (const auto& d : p.decisions)
+    s += format("  %-16s %-4s %s%s%s\n", d.effect.c_str(), d.value.c_str(),
+                d.forced ? "[forced] " : "", d.reason.c_str(),
+                d.secondsSaved > 0 ? (" — saves ~" + formatSeconds(d.secondsSaved)).c_str() : "");
+  return s;
+}
+
+std::string estimateText(const SimEstimate& e, const SimOptions& o, bool streamed) {
+  std::string disk =
+      streamed ? "disk: no raw file"
+               : "disk " + formatBytes(double(e.diskBytes)) +
+                     (e.freeDiskBytes ? " (" + formatBytes(double(e.freeDiskBytes)) + " free)"
+                                      : std::string(" (free space unknown)"));
+  return format(
+      "estimate: %s (hit maps %s, aBRDF %s) on %d thread(s); memory %s of a %s budget; "
+      "%s; %d chunk(s) of %d texel(s)",
+      formatSeconds(e.seconds).c_str(), formatSeconds(e.hitMapSeconds).c_str(),
+      formatSeconds(e.evalSeconds).c_str(), e.threads, formatBytes(double(e.memoryBytes)).c_str(),
+      formatBytes(double(o.memoryBudget)).c_str(), disk.c_str(), e.chunks, e.chunkTexels);
+}
+
+json planJson(const EffectPlan& p) {
+  return json::parse(p.toJson());
+}
+
+}  // namespace
+
+// Also the studio's warning: the codec's own stage already exceeds the target.
+void warnTarget(const Call& c, const CompressedBtf& b);
+std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss);
+
+void simulate(const Call& c) {
+  const Request& r = c.r;
+  const Scene scene = c.scene();
+  SimOptions o = simOptions(scene, r);
+  o.progress = c.progress();
+  const std::string& output = r.s("output");
+  const std::string codec = r.s("compress");
+  if (!codec.empty()) {
+    const auto& names = codecNames();
+    if (std::find(names.begin(), names.end(), codec) == names.end())
+      throw Error("--compress: unknown codec '" + codec + "' (expected nmf, svd, perview or lpca)");
+  }
+  const auto parent = std::filesystem::path(output).parent_path();
+  if (!parent.empty() && !std::filesystem::is_directory(parent))
+    throw Error(output + ": the folder " + parent.string() + " does not exist");
+  if (std::filesystem::is_directory(output))
+    throw Error(output + ": is a folder; -o needs a file path");
+  SimulationJob job(scene, o);
+  job.setCancel(c.ctx.cancel);
+  const SimEstimate est = job.estimate(codec.empty() ? output : std::string());
+  c.notice("effect plan (" + o.method + "):\n" + planText(job.plan()));
+  c.notice(estimateText(est, o, !codec.empty()));
+  if (!est.refusal.empty()) throw Error("refusing to start: " + est.refusal);
+  json& j = c.rep.json;
+  j["output"] = output;
+  j["scene"] = scene.name;
+  j["texels"] = {o.nu, o.nv};
+  j["directions"] = job.directions().name();
+  j["direction_count"] = job.directions().size();
+  j["spp"] = o.spp;
+  j["shadows"] = shadowModeName(o.shadows);
+  j["method"] = o.method;
+  j["plan"] = planJson(job.plan());
+  j["threads"] = est.threads;
+  j["estimated_seconds"] = est.seconds;
+  c.rep.outputs.push_back(output);
+  if (!codec.empty()) {
+    // Streamed: the training texels first, then every chunk straight into the encoder.
+    const CodecSettings cs = codecSettings(r, codec);
+    const BtfInfo info = job.storeInfo(est.chunkTexels);
+    auto enc = makeEncoder(cs, info, c.ctx.cancel);
+    const double trainBytes = double(enc->trainingTexels().size()) * double(info.texelBytes());
+    const double need = double(est.memoryBytes) + double(enc->memoryBytes()) + trainBytes;
+    if (need > double(o.memoryBudget))
+      throw Error("refusing to start: simulating and compressing needs about " + formatBytes(need) +
+                  " (simulation " + formatBytes(double(est.memoryBytes)) + ", encoder " +
+                  formatBytes(double(enc->memoryBytes())) + ", training texels " +
+                  formatBytes(trainBytes) + ") but --memory-budget is " +
+                  formatBytes(double(o.memoryBudget)));
+    c.notice(
+        format("streaming into codec %s: no raw BTF is written (raw size would be %s); "
+               "encoder memory about %s",
+               cs.codec.c_str(), formatBytes(double(btfFileBytes(info))).c_str(),
+               formatBytes(double(enc->memoryBytes())).c_str()));
+    job.setTrainingTexels(enc->trainingTexels(), [&](const float* v) { enc->train(v); });
+    double encodeSeconds = 0;
+    job.setChunkSink([&](int, int64_t t0, int64_t t1, const float* values) {
+      const auto s0 = Clock::now();
+      enc->add(t0, t1, values);
+      c.ctx.check("encoder");
+      encodeSeconds += since(s0);
+    });
+    const auto start = Clock::now();
+    const SimReport sr = job.run("", est, c.ctx.cancel);
+    const auto f0 = Clock::now();
+    const CompressedBtf b = enc->finish();
+    const double finishSeconds = since(f0);
+    c.ctx.check("encoder");
+    writeCompressed(output, b);
+    const double wall = since(start);
+    const uint64_t rss = peakRssBytes();
+    warnTarget(c, b);
+    j["codec"] = json::parse(b.paramsJson);
+    j["stats"] = json::parse(b.statsJson);
+    j["wall_seconds"] = wall;
+    j["simulate_seconds"] = sr.wallSeconds - encodeSeconds;
+    j["encode_seconds"] = encodeSeconds;
+    j["finish_seconds"] = finishSeconds;
+    j["raw_bytes"] = double(info.texels()) * info.nDirs() * info.nDirs() * 12.0;
+    j["compressed_bytes"] = b.fileBytes();
+    j["ratio"] = b.ratio();
+    j["peak_memory_bytes"] = rss;
+    c.rep.text =
+        format(
+            "wrote %s\n  %d x %d texels, %d directions (%s); wall %s: simulation %s, "
+            "encoding %s, finish (PCA) %s\n",
+            output.c_str(), o.nu, o.nv, job.directions().size(), job.directions().name().c_str(),
+            formatSeconds(wall).c_str(), formatSeconds(sr.wallSeconds - encodeSeconds).c_str(),
+            formatSeconds(encodeSeconds).c_str(), formatSeconds(finishSeconds).c_str()) +
+        compressedText(b, wall, rss);
+    c.rep.summary = format("wrote %s, ratio 1:%.0f in %s", output.c_str(), b.ratio(),
+                           formatSeconds(wall).c_str());
+    return;
+  }
+  const SimReport sr = job.run(output, est, c.ctx.cancel);
+  const double evalRate = sr.evalSeconds > 0 ? double(sr.abrdfValues) / sr.evalSeconds : 0;
+  const double rayRate = sr.hitMapSeconds > 0 ? double(sr.hitMapRays) / sr.hitMapSeconds : 0;
+  j["network_points"] = sr.networkPoints;
+  j["network_links"] = sr.networkLinks;
+  j["precompute_seconds"] = sr.precomputeSeconds;
+  j["render_seconds"] = sr.renderSeconds;
+  j["network_seconds"] = sr.networkSeconds;
+  j["network_light_seconds"] = sr.lightSeconds;
+  j["wall_seconds"] = sr.wallSeconds;
+  j["hit_map_seconds"] = sr.hitMapSeconds;
+  j["abrdf_seconds"] = sr.evalSeconds;
+  j["write_seconds"] = sr.writeSeconds;
+  j["hit_map_rays"] = sr.hitMapRays;
+  j["rays_per_second"] = rayRate;
+  j["abrdf_values"] = sr.abrdfValues;
+  j["abrdf_evaluations_per_second"] = evalRate;
+  j["brdf_evaluations"] = sr.brdfEvaluations;
+  j["peak_memory_bytes"] = sr.peakRssBytes;
+  j["output_bytes"] = sr.outputBytes;
+  j["chunks"] = sr.chunks;
+  j["chunks_resumed"] = sr.chunksResumed;
+  const EffectPlan& pl = job.plan();
+  std::string t =
+      format("wrote %s (%s)\n", output.c_str(), formatBytes(double(sr.outputBytes)).c_str());
+  t += format("  %d x %d texels, %d directions (%s), spp %d, shadows %s, %d thread(s)\n", o.nu,
+              o.nv, job.directions().size(), job.directions().name().c_str(), o.spp,
+              o.method == "pt" ? "exact (path traced)" : shadowModeName(o.shadows), est.threads);
+  t += format("  wall %s: hit maps %s (%.2f M rays/s), aBRDF %s (%.2f M values/s), write %s\n",
+              formatSeconds(sr.wallSeconds).c_str(), formatSeconds(sr.hitMapSeconds).c_str(),
+              rayRate / 1e6, formatSeconds(sr.evalSeconds).c_str(), evalRate / 1e6,
+              formatSeconds(sr.writeSeconds).c_str());
+  t += format("  effects: self-shadowing %s, inter-reflection %s (P = %d), %d channel(s), VMF %s\n",
+              pl.selfShadowing ? "on" : "off", pl.interreflection ? "on" : "off", pl.bounces,
+              pl.channels, pl.vmf ? "on" : "off");
+  if (sr.networkPoints)
+    t += format(
+        "  precompute %s (network %s: %zu points, %zu links; hit maps %s), render %s "
+        "(network light %s)\n",
+        formatSeconds(sr.precomputeSeconds).c_str(), formatSeconds(sr.networkSeconds).c_str(),
+        sr.networkPoints, sr.networkLinks, formatSeconds(sr.hitMapSeconds).c_str(),
+        formatSeconds(sr.renderSeconds).c_str(), formatSeconds(sr.lightSeconds).c_str());
+  t += format("  peak memory %s; chunks %d (%d resumed)\n",
+              formatBytes(double(sr.peakRssBytes)).c_str(), sr.chunks, sr.chunksResumed);
+  c.rep.text = t;
+  c.rep.summary =
+      format("wrote %s (%s) in %s", output.c_str(), formatBytes(double(sr.outputBytes)).c_str(),
+             formatSeconds(sr.wallSeconds).c_str()) +
+      (sr.chunksResumed ? format(", %d chunk(s) resumed", sr.chunksResumed) : "");
+}
+
+void plan(const Call& c) {
+  const Scene scene = c.scene();
+  SimOptions o = simOptions(scene, c.r);
+  o.progress = false;
+  SimulationJob job(scene, o);
+  job.setCancel(c.ctx.cancel);
+  const SimEstimate est = job.estimate("");
+  const EffectPlan& p = job.plan();
+  json& j = c.rep.json;
+  j = planJson(p);
+  j["scene"] = scene.name;
+  j["method"] = o.method;
+  j["texels"] = {o.nu, o.nv};
+  j["directions"] = job.directions().name();
+  j["triangles"] = job.geometry().triangleCount();
+  j["estimate"]["seconds"] = est.seconds;
+  j["estimate"]["hit_map_seconds"] = est.hitMapSeconds;
+  j["estimate"]["abrdf_seconds"] = est.evalSeconds;
+  j["estimate"]["network_light_seconds"] = est.lightSeconds;
+  j["estimate"]["gather_seconds"] = est.gatherSeconds;
+  j["estimate"]["memory_bytes"] = est.memoryBytes;
+  j["estimate"]["network_bytes"] = est.networkBytes;
+  if (const PointNetwork* n = job.network()) {
+    j["network"]["points"] = n->points().size();
+    j["network"]["links"] = n->links().size();
+    j["network"]["voxels"] = n->settings().voxels;
+    j["network"]["build_seconds"] = n->buildSeconds();
+  }
+  std::string t = format("effect plan for %s (%dx%d texels, %s, %d directions, method %s):\n",
+                         scene.name.c_str(), o.nu, o.nv, job.directions().name().c_str(),
+                         job.directions().size(), o.method.c_str());
+  t += planText(p);
+  t += format("geometry: %zu triangles (%zu in the tracer with the periodic copies)\n",
+              job.geometry().triangleCount(), job.tracer().embreeTriangles());
+  t += format(
+      "analysis: %s; ρ_max %.3g; α max %.3g, mean %.3g; %lld of %lld occlusion probes "
+      "occluded\n",
+      p.flat ? "flat tile" : "relief", p.rhoMax, p.alphaMax, p.alphaMean,
+      (long long)p.occludedTests, (long long)p.occlusionTests);
+  if (const PointNetwork* n = job.network())
+    t += format("point network: %zu points, %zu links (%d voxels per side), built in %s\n",
+                n->points().size(), n->links().size(), n->settings().voxels,
+                formatSeconds(n->buildSeconds()).c_str());
+  t += format(
+      "estimate: %s (hit maps %s, aBRDF %s of which final gather %s, network light %s) "
+      "on %d thread(s); memory %s\n",
+      formatSeconds(est.seconds).c_str(), formatSeconds(est.hitMapSeconds).c_str(),
+      formatSeconds(est.evalSeconds).c_str(), formatSeconds(est.gatherSeconds).c_str(),
+      formatSeconds(est.lightSeconds).c_str(), est.threads,
+      formatBytes(double(est.memoryBytes)).c_str());
+  c.rep.text = t;
+  c.rep.summary = "plan of " + scene.name + ": estimate " + formatSeconds(est.seconds);
+}
+
+void bench(const Call& c) {
+  const Scene scene = c.scene();
+  json results = json::array();
+  std::string t;
+  for (const auto& mode : splitList(c.r.s("shadows"), "--shadows")) {
+    SimOptions o = simOptions(scene, c.r);
+    o.shadows = parseShadowMode(mode);
+    o.progress = false;
+    o.memoryBudget = uint64_t(2) << 30;
+    SimulationJob job(scene, o);
+    job.setCancel(c.ctx.cancel);
+    const SimEstimate est = job.estimate("");
+    std::vector<double> wall, hit, eval, rays, rates, rss;
+    const int repeat = c.r.i("repeat");
+    for (int k = 0; k < repeat; ++k) {
+      const SimReport sr = job.run("", est, c.ctx.cancel);
+      wall.push_back(sr.wallSeconds);
+      hit.push_back(sr.hitMapSeconds);
+      eval.push_back(sr.evalSeconds);
+      rays.push_back(double(sr.hitMapRays) / std::max(1e-9, sr.hitMapSeconds));
+      rates.push_back(double(sr.abrdfValues) / std::max(1e-9, sr.evalSeconds));
+      rss.push_back(double(sr.peakRssBytes));
+      c.notice(
+          format("bench %s run %d/%d: %.2f s (hit maps %.2f s, aBRDF %.2f s, %.1f M "
+                 "values/s; P = %d)",
+                 mode.c_str(), k + 1, repeat, sr.wallSeconds, sr.hitMapSeconds, sr.evalSeconds,
+                 rates.back() / 1e6, job.plan().bounces));
+    }
+    auto median = [](std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      return v[v.size() / 2];
+    };
+    const double peak = *std::max_element(rss.begin(), rss.end());
+    json j;
+    j["shadows"] = mode;
+    j["method"] = o.method;
+    j["interreflection"] = job.plan().interreflection;
+    j["bounces"] = job.plan().bounces;
+    j["texels"] = {o.nu, o.nv};
+    j["directions"] = job.directions().name();
+    j["pairs"] = int64_t(job.directions().size()) * job.directions().size();
+    j["spp"] = o.spp;
+    j["threads"] = est.threads;
+    j["runs"] = repeat;
+    j["median_wall_seconds"] = median(wall);
+    j["median_hit_map_seconds"] = median(hit);
+    j["median_abrdf_seconds"] = median(eval);
+    j["median_rays_per_second"] = median(rays);
+    j["median_abrdf_values_per_second"] = median(rates);
+    j["estimated_seconds"] = est.seconds;
+    j["peak_rss_bytes"] = peak;
+    j["memory_budget_bytes"] = o.memoryBudget;
+    results.push_back(j);
+    t += format(
+        "%-5s %dx%d texels x %s^2, spp %d, %d thread(s): median wall %.2f s = hit maps "
+        "%.2f s (%.2f M rays/s) + aBRDF %.2f s (%.1f M values/s); peak RSS %s\n",
+        mode.c_str(), o.nu, o.nv, job.directions().name().c_str(), o.spp, est.threads, median(wall),
+        median(hit), median(rays) / 1e6, median(eval), median(rates) / 1e6,
+        formatBytes(peak).c_str());
+  }
+  c.rep.json["scene"] = scene.name;
+  c.rep.json["results"] = results;
+  c.rep.text = t;
+  c.rep.summary = "bench of " + scene.name;
+}
+
+namespace {
+
+std::vector<DirectionPair> readPairs(const Request& r, std::vector<std::array<double, 4>>* deg) {
+  std::vector<DirectionPair> pairs;
+  auto add = [&](const std::string& text, const std::string& where) {
+    std::array<double, 4> v{};
+    std::string t = text;
+    std::replace(t.begin(), t.end(), ',', ' ');
+    std::istringstream in(t);
+    std::string rest;
+    if (!(in >> v[0] >> v[1] >> v[2] >> v[3]) || (in >> rest))
+      throw Error(where + ": expected θi,φi,θo,φo in degrees, got '" + text + "'");
+    try {
+      pairs.push_back(pairFromDegrees(v[0], v[1], v[2], v[3]));
+    } catch (const Error& e) {
+      throw Error(where + ": " + e.what());
+    }
+    deg->push_back(v);
+  };
+  std::stringstream list(r.s("pair"));
+  std::string item;
+  while (std::getline(list, item, ';'))
+    if (!item.empty()) add(item, "--pair");
+  const std::string& file = r.s("pairs");
+  if (!file.empty()) {
+    std::ifstream f(file);
+    if (!f) throw Error(file + ": cannot open pairs file");
+    std::string line;
+    int n = 0;
+    while (std::getline(f, line)) {
+      ++n;
+      const auto first = line.find_first_not_of(" \t\r");
+      if (first == std::string::npos || line[first] == '#') continue;
+      if (std::isalpha(static_cast<unsigned char>(line[first])) && n == 1) continue;  // header
+      add(line, file + ":" + std::to_string(n));
+    }
+  }
+  if (pairs.empty()) throw Error("no direction pairs: give --pair θi,φi,θo,φo or --pairs FILE.csv");
+  return pairs;
+}
+
+}  // namespace
+
+void brdf(const Call& c) {
+  const Request& r = c.r;
+  const Scene scene = c.scene();
+  std::vector<std::array<double, 4>> deg;
+  const auto pairs = readPairs(r, &deg);
+  SimOptions o = optionsFromScene(scene);
+  o.progress = false;
+  SimulationJob job(scene, o);
+  const int samples = r.i("spp");
+  std::vector<Rgb> vals;
+  if (r.s("method") == "direct") {
+    vals = averagedBrdf(job.tracer(), job.materials(), pairs, samples, o.seed);
+  } else {
+    PathSettings ps;
+    ps.maxBounces = r.i("bounces");
+    ps.seed = o.seed;
+    vals = pathTracedBrdf(job.tracer(), job.materials(), pairs, samples, r.i("paths"), ps);
+  }
+  json arr = json::array();
+  std::string t = "theta_i,phi_i,theta_o,phi_o,r,g,b\n";
+  for (size_t k = 0; k < vals.size(); ++k) {
+    arr.push_back({{"theta_i", deg[k][0]},
+                   {"phi_i", deg[k][1]},
+                   {"theta_o", deg[k][2]},
+                   {"phi_o", deg[k][3]},
+                   {"abrdf", {vals[k].x, vals[k].y, vals[k].z}}});
+    t += format("%g,%g,%g,%g,%.7g,%.7g,%.7g\n", deg[k][0], deg[k][1], deg[k][2], deg[k][3],
+                vals[k].x, vals[k].y, vals[k].z);
+  }
+  json& j = c.rep.json;
+  j["scene"] = scene.name;
+  j["method"] = r.s("method");
+  j["bounces"] = r.i("bounces");
+  j["samples"] = samples * samples * (r.s("method") == "pt" ? r.i("paths") : 1);
+  j["pairs"] = arr;
+  c.rep.text = t;
+  c.rep.summary = format("%zu pair(s) of %s", vals.size(), scene.name.c_str());
+}
+
+}  // namespace btf::ops::detail

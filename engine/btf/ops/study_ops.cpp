@@ -1,0 +1,198 @@
+// The accuracy-vs-time study: the simulator's knobs against the path tracer and, with --codecs,
+// the compression knobs on the base configuration's BTF.
+#include <btf/compress/compress.h>
+#include <btf/core/sysinfo.h>
+#include <btf/ops/internal.h>
+#include <btf/scene/scene.h>
+#include <btf/sim/simulator.h>
+#include <btf/sim/study.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace btf::ops::detail {
+
+namespace {
+
+void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o) {
+  const Request& r = c.r;
+  const std::string& dir = r.s("output");
+  std::vector<double> betas;
+  for (const auto& b : splitList(r.s("betas"), "--betas")) {
+    char* end = nullptr;
+    const double v = std::strtod(b.c_str(), &end);
+    if (end == b.c_str() || *end || !(v > 0 && v <= 1))
+      throw Error("--betas: value '" + b + "' must be a number in (0, 1]");
+    betas.push_back(v);
+  }
+  const std::vector<int> comps = intList(r.s("components"), "--components", 0, 4096);
+  std::vector<CodecSettings> settings;
+  for (const auto& name : splitList(r.s("codecs"), "--codecs"))
+    for (double beta : name == "nmf" ? betas : std::vector<double>{betas[0]})
+      for (int comp : comps) {
+        CodecSettings cs = codecSettings(r, name);
+        cs.beta = beta;
+        cs.components = comp;
+        validate(cs);
+        settings.push_back(cs);
+      }
+  const std::string raw = dir + "/base.btf";
+  Request sim("simulate");
+  sim.set("scene", r.s("scene")).set("output", raw);
+  sim.set("texels", std::to_string(o.nu) + "x" + std::to_string(o.nv)).set("dirs", o.base.dirs);
+  sim.set("spp", double(o.base.spp)).set("shadows", shadowModeName(o.base.shadows));
+  sim.set("method", o.base.method);
+  SimOptions so = simOptions(scene, sim);
+  so.progress = c.progress();
+  {
+    SimulationJob job(scene, so);
+    job.setCancel(c.ctx.cancel);
+    const SimEstimate est = job.estimate(raw);
+    if (!est.refusal.empty()) throw Error("compression study: " + est.refusal);
+    c.notice("compression study: simulating the base configuration into " + raw);
+    job.run(raw, est, c.ctx.cancel);
+  }
+  const auto ref = openBtf(raw);
+  struct Row {
+    CodecSettings s;
+    double seconds, ratio, rmse, rel, psnr;
+    uint64_t bytes, rss;
+    std::string chosen;
+    bool pareto = false;
+  };
+  std::vector<Row> rows;
+  for (const auto& cs : settings) {
+    CompressReport rep;
+    CompressedBtf b = compressStore(raw, cs, c.progress(), c.ctx.cancel, &rep);
+    const json params = json::parse(b.paramsJson);
+    std::string chosen;
+    if (params.contains("components_per_channel")) chosen = params["components_per_channel"].dump();
+    if (params.contains("channels")) {
+      json ch = json::array();
+      for (const auto& x : params["channels"])
+        ch.push_back({x["slots"], x["components_view"], x["components_light"]});
+      chosen = ch.dump();
+    }
+    const auto dec = makeDecoder(std::move(b));
+    const ErrorReport e = compareBtfs(*ref, *dec, false, 10, c.ctx.cancel);
+    rows.push_back({cs, rep.seconds, rep.ratio, e.rmse, e.relRmse, e.psnr, rep.fileBytes,
+                    rep.peakRssBytes, chosen});
+  }
+  // Pareto front on (size, error): no other row is both smaller and more accurate.
+  for (auto& row : rows) {
+    row.pareto = true;
+    for (const auto& q : rows)
+      if (&q != &row && q.bytes <= row.bytes && q.rel <= row.rel &&
+          (q.bytes < row.bytes || q.rel < row.rel))
+        row.pareto = false;
+  }
+  std::ofstream csv(dir + "/compression.csv");
+  csv << "codec,colour,beta,components,chosen,ratio,bytes,rmse,relative_rmse,psnr_db,seconds,"
+         "peak_rss_bytes,pareto\n";
+  std::ofstream md(dir + "/compression.md");
+  md << "# Compression study: " << scene.name << ", " << o.nu << "x" << o.nv << " texels, "
+     << o.base.dirs << ", spp " << o.base.spp << "\n\n"
+     << "Error against the uncompressed simulation (" << raw << ").\n\n"
+     << "| codec | β | components (chosen) | ratio | RMSE | rel. RMSE | PSNR | time | peak RSS | "
+        "Pareto |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  std::string t = format("%-8s %6s %-24s %8s %9s %9s %8s %8s\n", "codec", "beta", "components",
+                         "ratio", "RMSE", "rel.RMSE", "PSNR", "time");
+  json arr = json::array();
+  for (const auto& row : rows) {
+    const std::string comp = (row.s.components ? std::to_string(row.s.components) : "auto") +
+                             (row.chosen.empty() ? "" : " " + row.chosen);
+    csv << row.s.codec << "," << row.s.colour << "," << row.s.beta << "," << row.s.components
+        << ",\"" << row.chosen << "\"," << row.ratio << "," << row.bytes << "," << row.rmse << ","
+        << row.rel << "," << row.psnr << "," << row.seconds << "," << row.rss << ","
+        << (row.pareto ? 1 : 0) << "\n";
+    md << format("| %s | %s | %s | 1:%.0f | %.4g | %.2f %% | %.1f dB | %.1f s | %s | %s |\n",
+                 row.s.codec.c_str(),
+                 row.s.codec == "nmf" ? std::to_string(row.s.beta).substr(0, 6).c_str() : "–",
+                 comp.c_str(), row.ratio, row.rmse, 100 * row.rel, row.psnr, row.seconds,
+                 formatBytes(double(row.rss)).c_str(), row.pareto ? "*" : "");
+    t += format("%-8s %6.4f %-24s %7.0f:1 %9.4g %8.2f%% %7.1fdB %7.1fs %s\n", row.s.codec.c_str(),
+                row.s.beta, comp.substr(0, 24).c_str(), row.ratio, row.rmse, 100 * row.rel,
+                row.psnr, row.seconds, row.pareto ? "*" : "");
+    arr.push_back({{"codec", row.s.codec},
+                   {"beta", row.s.beta},
+                   {"components", row.s.components},
+                   {"ratio", row.ratio},
+                   {"bytes", row.bytes},
+                   {"rmse", row.rmse},
+                   {"relative_rmse", row.rel},
+                   {"psnr_db", row.psnr},
+                   {"seconds", row.seconds},
+                   {"pareto", row.pareto}});
+  }
+  std::filesystem::remove(raw);
+  c.rep.json["compression"] = arr;
+  c.rep.text += t + "wrote " + dir + "/compression.csv, compression.md\n";
+}
+
+}  // namespace
+
+void study(const Call& c) {
+  const Request& r = c.r;
+  const Scene scene = c.scene();
+  StudyOptions o;
+  parseTexels(r.s("texels"), &o.nu, &o.nv);
+  o.methods = splitList(r.s("method"), "--method");
+  for (const auto& m : o.methods)
+    if (m != "network" && m != "pt")
+      throw Error("--method: value '" + m + "' must be network or pt");
+  o.paths = intList(r.s("paths"), "--paths", 1, 4096);
+  o.dirs = splitList(r.s("dirs"), "--dirs");
+  for (const auto& d : o.dirs) DirectionSet::fromName(d);  // validate early
+  o.spp = intList(r.s("spp"), "--spp", 1, 64);
+  for (const auto& m : splitList(r.s("shadows"), "--shadows")) {
+    const ShadowMode sm = parseShadowMode(m);
+    if (sm == ShadowMode::None) throw Error("--shadows: use map or rays");
+    o.shadows.push_back(sm);
+  }
+  o.voxels = intList(r.s("network_voxels"), "--network-voxels", 0, 1024);
+  o.gather = intList(r.s("gather"), "--gather", 1, 16);
+  o.links = intList(r.s("links"), "--links", 1, 256);
+  o.bounces = intList(r.s("bounces"), "--bounces", 1, 64);
+  o.base = {o.methods[0], o.dirs[0],  o.spp[0],     o.shadows[0], o.voxels[0],
+            o.gather[0],  o.links[0], o.bounces[0], o.paths[0]};
+  if (o.paths.size() == 1 && o.methods.size() == 1) o.paths.clear();
+  o.grid = r.b("grid");
+  o.referenceSamples = r.i("reference_spp");
+  o.imageSpp = r.i("image_spp");
+  o.imagePaths = r.i("image_paths");
+  o.progress = c.progress();
+  o.cancel = c.ctx.cancel;
+  const auto configs = studyConfigs(o);
+  c.notice(
+      format("study of %s: %zu configuration(s) at %dx%d texels, reference %d² paths per "
+             "probe pair",
+             scene.name.c_str(), configs.size(), o.nu, o.nv, o.referenceSamples));
+  const std::string& dir = r.s("output");
+  std::filesystem::create_directories(dir);
+  const Study st = runStudy(scene, o);
+  writeStudy(st, dir);
+  std::string t = format("%-52s %9s %8s %8s %8s %7s\n", "configuration", "time", "interp.",
+                         "at set", "image", "Pareto");
+  json arr = json::array();
+  for (const auto& res : st.results) {
+    t += format("%-52s %8.2fs %7.2f%% %7.2f%% %7.1f%% %7s\n", res.config.label().c_str(),
+                res.seconds, 100 * res.probeRelRmse, 100 * res.setRelRmse, 100 * res.imageRelRmse,
+                res.pareto ? "*" : "");
+    arr.push_back({{"config", res.config.label()},
+                   {"seconds", res.seconds},
+                   {"probe_rel_rmse", res.probeRelRmse},
+                   {"set_rel_rmse", res.setRelRmse},
+                   {"image_rel_rmse", res.imageRelRmse},
+                   {"pareto", res.pareto}});
+  }
+  t += "wrote " + dir + "/study.csv, study.md, study.svg\n";
+  c.rep.text = t;
+  c.rep.json["scene"] = scene.name;
+  c.rep.json["output"] = dir;
+  c.rep.json["configurations"] = arr;
+  c.rep.summary =
+      "wrote " + dir + "/study.csv (" + std::to_string(st.results.size()) + " configurations)";
+  if (!r.s("codecs").empty()) compressionStudy(c, scene, o);
+}
+
+}  // namespace btf::ops::detail
