@@ -377,7 +377,7 @@ void App::frame() {
     pv.firstImageSeconds = -1;
     pv.dirty = false;
   }
-  updatePreview(*this);
+  updatePreview(previewView());
   jobs.pump();
   handleDrop();
   handleShortcuts();
@@ -391,23 +391,25 @@ void App::frame() {
     ImGui::SetNextWindowPos(ImVec2(x * W, top + y * H), ImGuiCond_FirstUseEver);
     ImGui::SetNextWindowSize(ImVec2(w * W, h * H), ImGuiCond_FirstUseEver);
   };
-  auto panel = [&](const char* name, float x, float y, float w, float h, void (*draw)(App&)) {
+  auto panel = [&](const char* name, float x, float y, float w, float h,
+                   const std::function<void()>& draw) {
     if (!panels[name]) return;
     place(x, y, w, h);
     if (focusPanel == name) {
       ImGui::SetNextWindowFocus();
       ImGui::SetNextWindowCollapsed(false);
     }
-    draw(*this);
+    draw();
   };
-  panel("Scene", 0, 0, 0.24f, 1, drawScenePanel);
-  panel("Tile view", 0.24f, 0, 0.38f, 0.5f, drawTileView);
-  panel("Preview", 0.62f, 0, 0.38f, 0.5f, drawPreviewPanel);
-  panel("BRDF", 0.24f, 0.5f, 0.38f, 0.5f, drawBrdfPanel);
-  panel("Jobs", 0.62f, 0.5f, 0.38f, 0.5f, drawJobsPanel);
-  panel("Inspector", 0.3f, 0.1f, 0.6f, 0.8f, drawInspectorPanel);
-  panel("Objects", 0.35f, 0.05f, 0.55f, 0.8f, drawObjectViewer);
-  panel("Study", 0.4f, 0.2f, 0.5f, 0.6f, drawStudyPanel);
+  // Each panel gets a view of what it uses (panels/panels.h), not the App.
+  panel("Scene", 0, 0, 0.24f, 1, [&] { drawScenePanel(sceneView()); });
+  panel("Tile view", 0.24f, 0, 0.38f, 0.5f, [&] { drawTileView(tileView()); });
+  panel("Preview", 0.62f, 0, 0.38f, 0.5f, [&] { drawPreviewPanel(previewView()); });
+  panel("BRDF", 0.24f, 0.5f, 0.38f, 0.5f, [&] { drawBrdfPanel(brdfView()); });
+  panel("Jobs", 0.62f, 0.5f, 0.38f, 0.5f, [&] { drawJobsPanel(jobsView()); });
+  panel("Inspector", 0.3f, 0.1f, 0.6f, 0.8f, [&] { drawInspectorPanel(inspectorView()); });
+  panel("Objects", 0.35f, 0.05f, 0.55f, 0.8f, [&] { drawObjectViewer(objectView()); });
+  panel("Study", 0.4f, 0.2f, 0.5f, 0.6f, [&] { drawStudyPanel(studyView()); });
   focusPanel.clear();
   drawDiscardPrompt();
   drawPathPopup();
@@ -535,6 +537,31 @@ int App::run() {
   ImGui_ImplGlfw_Shutdown();
   ImGui::DestroyContext();
   return m_exitStatus;  // the window goes with the App, after its GL objects
+}
+
+SceneView App::sceneView() {
+  return {panels["Scene"], doc, fieldErrors, tile, *this};
+}
+TileViewView App::tileView() {
+  return {panels["Tile view"], doc, pv, tile, width, height, *this};
+}
+PreviewView App::previewView() {
+  return {panels["Preview"], preview, pv, *this};
+}
+BrdfView App::brdfView() {
+  return {panels["BRDF"], pv};
+}
+JobsView App::jobsView() {
+  return {panels["Jobs"], doc, form, jobs, *this};
+}
+InspectorView App::inspectorView() {
+  return {panels["Inspector"], insp, pv, *this};
+}
+ObjectView App::objectView() {
+  return {panels["Objects"], obj, insp, width, height, *this};
+}
+StudyView App::studyView() {
+  return {panels["Study"], study, *this};
 }
 
 }  // namespace btf::ui

@@ -16,6 +16,15 @@ void common(const JobForm& f, ops::Request& r) {
   r.set("threads", double(f.threads)).setFlag("quiet", true);
 }
 
+// The codec options the form gives, onto a request that declares them.
+void codecOptions(const JobForm& f, ops::Request& r) {
+  for (const auto& d : f.codecOptions.decl().options)
+    if (f.codecOptions.given(d.name) && r.decl().find(d.name) && d.name != "input" &&
+        d.name != "output" && d.name != "threads" && d.name != "quiet" && d.name != "json" &&
+        (d.name != "memory_budget" || r.command() == "compress"))
+      r.set(d.name, f.codecOptions.text(d.name));
+}
+
 }  // namespace
 
 ops::Request simulateRequest(const JobForm& f, const std::string& scenePath,
@@ -26,6 +35,7 @@ ops::Request simulateRequest(const JobForm& f, const std::string& scenePath,
   r.setFlag("resume", f.resume && fs::exists(output + ".partial"));
   if (!codec.empty()) {
     r.set("compress", codec);
+    codecOptions(f, r);
     if (!r.given("target_ratio")) r.set("target_ratio", f.targetRatio);
   }
   common(f, r);
@@ -35,6 +45,7 @@ ops::Request simulateRequest(const JobForm& f, const std::string& scenePath,
 ops::Request compressRequest(const JobForm& f, const std::string& input, const std::string& output,
                              const std::string& codec, bool compare) {
   ops::Request r("compress");
+  codecOptions(f, r);
   r.set("input", input).set("output", output).set("codec", codec);
   r.set("target_ratio", f.targetRatio).setFlag("compare", compare);
   common(f, r);

@@ -20,6 +20,9 @@ namespace btf::ui {
 struct JobForm {
   std::string output = "out/studio";
   ops::Request sim{"simulate"};
+  /// Codec options (β, ranks, colour model…) for compress and stream jobs; `codec` and
+  /// `targetRatio` below choose the codec and its target.
+  ops::Request codecOptions{"compress"};
   std::string codec = "nmf";
   double targetRatio = 300;
   std::string exportFormat = "ubo2003";

@@ -26,7 +26,6 @@ ojson ordered(const json& j) {
 }
 using Clock = std::chrono::steady_clock;
 
-
 namespace {
 
 // One random edit of the scene's numeric parameters (the random undo/redo test).
@@ -423,8 +422,8 @@ bool App::scriptStep() {
          [&]() -> std::optional<bool> {
            const json& c = a["check_glsl"];
            json result;
-           const bool ok =
-               checkGlsl(*this, c.value("samples", 256), c.value("tolerance", 0.02), &result);
+           const bool ok = checkGlsl(objectView(), c.value("samples", 256),
+                                     c.value("tolerance", 0.02), &result);
            m_report["check_glsl"] = result;
            if (!ok) return fail("GLSL decoder differs from the CPU decoder: " + result.dump());
            return std::nullopt;

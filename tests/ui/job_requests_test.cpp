@@ -117,3 +117,20 @@ TEST(JobRequests, TheScenesSimulationBlockSetsTheJobUnlessTheFormOverridesIt) {
   EXPECT_THROW(f.sim.set("spp", "0"), Error);
   EXPECT_THROW(f.sim.set("spp", "65"), Error);
 }
+
+TEST(JobRequests, CodecOptionsOfTheFormReachCompressAndStreamRequests) {
+  JobForm f;
+  f.codecOptions.set("beta", "0.9").set("max_rank", "4").set("memory_budget", "1G");
+  const auto c = compressRequest(f, "in.btf", "out.cbtf", "nmf", false);
+  EXPECT_DOUBLE_EQ(c.f("beta"), 0.9);
+  EXPECT_EQ(c.i("max_rank"), 4);
+  EXPECT_EQ(c.s("memory_budget"), "1G");
+  const auto s = simulateRequest(f, "scene.json", "out.cbtf", "nmf");
+  EXPECT_DOUBLE_EQ(s.f("beta"), 0.9);
+  EXPECT_EQ(s.i("max_rank"), 4);
+  EXPECT_EQ(s.s("memory_budget"), "4G");  // the simulation's own budget, not the compressor's
+  EXPECT_EQ(s.s("compress"), "nmf");
+  EXPECT_DOUBLE_EQ(s.f("target_ratio"), f.targetRatio);
+  // A raw simulation carries no codec.
+  EXPECT_EQ(simulateRequest(f, "scene.json", "out.btf", "").s("compress"), "");
+}

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "../app.h"
+#include "panels.h"
 #include "widgets.h"
 
 namespace btf::ui {
@@ -39,9 +39,9 @@ std::vector<float> texelHemisphere(const PreviewResult& r, double thetaL, double
 
 }  // namespace
 
-void drawBrdfPanel(App& app) {
+void drawBrdfPanel(const BrdfView& app) {
   PreviewState& pv = app.pv;
-  if (!ImGui::Begin("BRDF", &app.panels["BRDF"])) {
+  if (!ImGui::Begin("BRDF", &app.open)) {
     ImGui::End();
     return;
   }

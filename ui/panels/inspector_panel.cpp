@@ -6,7 +6,7 @@
 
 #include <algorithm>
 
-#include "../app.h"
+#include "panels.h"
 #include "widgets.h"
 
 namespace btf::ui {
@@ -25,9 +25,9 @@ std::vector<float> sliceImage(const Decoder& d, int view, int light) {
 
 }  // namespace
 
-void drawInspectorPanel(App& app) {
+void drawInspectorPanel(const InspectorView& app) {
   InspectorState& s = app.insp;
-  if (!ImGui::Begin("Inspector", &app.panels["Inspector"])) {
+  if (!ImGui::Begin("Inspector", &app.open)) {
     ImGui::End();
     return;
   }
@@ -37,9 +37,9 @@ void drawInspectorPanel(App& app) {
   ImGui::SameLine();
   if (ImGui::Button("Open")) {
     try {
-      app.openCompressed(path, s.reference);
+      app.act.openCompressed(path, s.reference);
     } catch (const std::exception& e) {
-      app.message(e.what(), true);
+      app.act.message(e.what(), true);
     }
   }
   if (!s.decoder) {
@@ -53,17 +53,17 @@ void drawInspectorPanel(App& app) {
     ImGui::SameLine();
     if (ImGui::Button("Compare")) {
       try {
-        app.compareInspector();
+        app.act.compareInspector();
       } catch (const std::exception& e) {
-        app.message(e.what(), true);
+        app.act.message(e.what(), true);
       }
     }
     ImGui::SameLine();
     if (ImGui::Button("Every codec")) {
       try {
-        app.startCodecSweep(s.reference);
+        app.act.startCodecSweep(s.reference);
       } catch (const std::exception& e) {
-        app.message(e.what(), true);
+        app.act.message(e.what(), true);
       }
     }
     if (ImGui::IsItemHovered())
@@ -164,7 +164,7 @@ void drawInspectorPanel(App& app) {
         app.pv.texelU = int(w.index % r.nu) * app.pv.size / r.nu;
         app.pv.texelV = int(w.index / r.nu) * app.pv.size / r.nv;
         app.pv.tileAverage = false;
-        app.requestPreview();
+        app.act.requestPreview();
       }
     }
     ImGui::EndGroup();

@@ -7,15 +7,16 @@
 #include <imgui_stdlib.h>
 
 #include <filesystem>
+#include <set>
 
-#include "../app.h"
+#include "panels.h"
 
 namespace btf::ui {
 
 namespace fs = std::filesystem;
 
-void drawJobsPanel(App& app) {
-  if (!ImGui::Begin("Jobs", &app.panels["Jobs"])) {
+void drawJobsPanel(const JobsView& app) {
+  if (!ImGui::Begin("Jobs", &app.open)) {
     ImGui::End();
     return;
   }
@@ -33,7 +34,7 @@ void drawJobsPanel(App& app) {
       try {
         f.sim.set(key, text);
       } catch (const std::exception& e) {
-        app.message(e.what(), true);
+        app.act.message(e.what(), true);
       }
     }
     if (ImGui::IsItemHovered())
@@ -65,30 +66,53 @@ void drawJobsPanel(App& app) {
   ImGui::SetNextItemWidth(70);
   ImGui::InputInt("threads", &f.threads);
   f.threads = std::clamp(f.threads, 0, 256);
+  // Every other declared option of the jobs' requests, through the declaration widgets.
+  static std::string optionError;
+  const std::set<std::string> shownAbove = {"scene",    "output", "texels",  "dirs",  "spp",
+                                            "compress", "resume", "threads", "quiet", "json"};
+  if (ImGui::TreeNode("simulation options")) {
+    for (const auto& d : f.sim.decl().options)
+      if (!shownAbove.count(d.name) &&
+          (!f.codecOptions.decl().find(d.name) || d.name == "memory_budget")) {
+        ImGui::SetNextItemWidth(120);
+        requestParam(f.sim, d, &optionError);
+      }
+    ImGui::TreePop();
+  }
+  if (ImGui::TreeNode("codec options")) {
+    for (const auto& d : f.codecOptions.decl().options)
+      if (!shownAbove.count(d.name) && d.name != "input" && d.name != "codec" &&
+          d.name != "target_ratio" && d.name != "compare") {
+        ImGui::SetNextItemWidth(120);
+        requestParam(f.codecOptions, d, &optionError);
+      }
+    ImGui::TreePop();
+  }
+  if (!optionError.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", optionError.c_str());
   const std::string btf = f.output + ".btf", cbtf = f.output + ".cbtf";
   const bool partial = fs::exists(btf + ".partial");
-  ImGui::TextDisabled("%s", app.simulationEstimate().c_str());
+  ImGui::TextDisabled("%s", app.act.simulationEstimate().c_str());
   auto guarded = [&](const std::function<void()>& fn) {
     try {
       fn();
     } catch (const std::exception& e) {
-      app.message(e.what(), true);
+      app.act.message(e.what(), true);
     }
   };
   if (ImGui::Button(partial && f.resume ? "Resume simulation" : "Simulate"))
-    guarded([&] { app.startSimulation(btf, false); });
+    guarded([&] { app.act.startSimulation(btf, false); });
   ImGui::SameLine();
-  if (ImGui::Button("Simulate + compress")) guarded([&] { app.startSimulation(btf, true); });
+  if (ImGui::Button("Simulate + compress")) guarded([&] { app.act.startSimulation(btf, true); });
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("simulate to .btf, then compress it (the inspector can compare both)");
   ImGui::SameLine();
-  if (ImGui::Button("Stream")) guarded([&] { app.startStreamedSimulation(cbtf); });
+  if (ImGui::Button("Stream")) guarded([&] { app.act.startStreamedSimulation(cbtf); });
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("simulate straight into the codec: only the .cbtf is written");
   ImGui::SameLine();
-  if (ImGui::Button("Compress")) guarded([&] { app.startCompression(btf, cbtf); });
+  if (ImGui::Button("Compress")) guarded([&] { app.act.startCompression(btf, cbtf); });
   ImGui::SameLine();
-  if (ImGui::Button("Study")) guarded([&] { app.startStudy(f.output + "-study"); });
+  if (ImGui::Button("Study")) guarded([&] { app.act.startStudy(f.output + "-study"); });
   ImGui::SameLine();
   ImGui::SetNextItemWidth(90);
   if (ImGui::BeginCombo("##fmt", f.exportFormat.c_str())) {
@@ -102,7 +126,7 @@ void drawJobsPanel(App& app) {
       const std::string out = f.exportFormat == "ubo2003"   ? f.output + "-ubo2003"
                               : f.exportFormat == "ubo2014" ? f.output + ".btf.dfmf"
                                                             : f.output + ".binary";
-      app.startExport(fs::exists(cbtf) ? cbtf : btf, f.exportFormat, out);
+      app.act.startExport(fs::exists(cbtf) ? cbtf : btf, f.exportFormat, out);
     });
   if (partial) {
     ImGui::Checkbox("resume the interrupted run", &f.resume);

@@ -13,8 +13,8 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
-#include "../app.h"
 #include "../objects.h"
+#include "panels.h"
 
 namespace btf::ui {
 
@@ -27,7 +27,7 @@ std::string decoderFragment(const std::string& body) {
 }
 
 // Uploads the compressed arrays as texture buffers and sets the decoder's uniforms.
-void bindDecoder(App& app, const gl::Program& prog) {
+void bindDecoder(const ObjectView& app, const gl::Program& prog) {
   ObjectState& o = app.obj;
   const CompressedBtf& c = *app.insp.cbtf;
   if (o.bound != app.insp.compressed) {
@@ -104,7 +104,7 @@ void bindDecoder(App& app, const gl::Program& prog) {
 
 }  // namespace
 
-bool checkGlsl(App& app, int samples, double tolerance, json* result) {
+bool checkGlsl(const ObjectView& app, int samples, double tolerance, json* result) {
   if (!app.insp.cbtf || !app.insp.decoder) throw Error("check_glsl: open a compressed BTF first");
   gl::Program prog;
   prog.build("btf_check", shaderSource("fullscreen.vert"), decoderFragment("btf_check.frag"));
@@ -154,9 +154,9 @@ bool checkGlsl(App& app, int samples, double tolerance, json* result) {
   return rel <= tolerance;
 }
 
-void drawObjectViewer(App& app) {
+void drawObjectViewer(const ObjectView& app) {
   ObjectState& o = app.obj;
-  if (!ImGui::Begin("Objects", &app.panels["Objects"])) {
+  if (!ImGui::Begin("Objects", &app.open)) {
     ImGui::End();
     return;
   }
@@ -266,7 +266,7 @@ void drawObjectViewer(App& app) {
     if (++o.band == o.bands) {
       o.band = -1;
       o.frameMs = o.passMs;
-      app.report()["object_pass_ms"] = o.frameMs;
+      app.act.report()["object_pass_ms"] = o.frameMs;
     }
   }
   ImGui::Image(o.fb.imguiId(), ImVec2(dispW, dispH), ImVec2(0, 1), ImVec2(1, 0));

@@ -6,14 +6,14 @@
 
 #include <chrono>
 
-#include "../app.h"
+#include "panels.h"
 #include "widgets.h"
 
 namespace btf::ui {
 
 using Clock = std::chrono::steady_clock;
 
-void updatePreview(App& app) {
+void updatePreview(const PreviewView& app) {
   PreviewResult r;
   if (!app.preview.poll(&r)) return;
   PreviewState& pv = app.pv;
@@ -44,9 +44,9 @@ bool directionInput(const char* label, double* theta, double* phi, ImU32 colour)
 }
 }  // namespace
 
-void drawPreviewPanel(App& app) {
+void drawPreviewPanel(const PreviewView& app) {
   PreviewState& pv = app.pv;
-  if (!ImGui::Begin("Preview", &app.panels["Preview"])) {
+  if (!ImGui::Begin("Preview", &app.open)) {
     ImGui::End();
     return;
   }
@@ -66,13 +66,13 @@ void drawPreviewPanel(App& app) {
     ImGui::Image(pv.image.imguiId(), ImVec2(side, side));
     // Where the image is, for the scripted session's pixel checks (framebuffer pixels).
     const float s = ImGui::GetIO().DisplayFramebufferScale.x;
-    app.report()["preview_rect"] = {p0.x * s, p0.y * s, (p0.x + side) * s, (p0.y + side) * s};
+    app.act.report()["preview_rect"] = {p0.x * s, p0.y * s, (p0.x + side) * s, (p0.y + side) * s};
     if (ImGui::IsItemClicked()) {
       const ImVec2 m = ImGui::GetIO().MousePos;
       pv.texelU = std::clamp(int((m.x - p0.x) / side * float(pv.size)), 0, pv.size - 1);
       pv.texelV = std::clamp(int((1 - (m.y - p0.y) / side) * float(pv.size)), 0, pv.size - 1);
       pv.tileAverage = false;
-      app.requestPreview();
+      app.act.requestPreview();
     }
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("click: pick the texel of the BRDF views");
     // The picked texel.
@@ -89,9 +89,9 @@ void drawPreviewPanel(App& app) {
   ImGui::SameLine();
   ImGui::BeginGroup();
   if (directionInput("view (θ, φ)", &pv.thetaV, &pv.phiV, IM_COL32(80, 200, 255, 255)))
-    app.requestPreview();
+    app.act.requestPreview();
   if (directionInput("light (θ, φ)", &pv.thetaL, &pv.phiL, IM_COL32(255, 210, 60, 255)))
-    app.requestPreview();
+    app.act.requestPreview();
   ImGui::SetNextItemWidth(100);
   if (ImGui::SliderFloat("exposure", &pv.exposure, 0.05f, 20, "%.2f", ImGuiSliderFlags_Logarithmic))
     pv.imageStamp = ~0ull;
@@ -105,7 +105,7 @@ void drawPreviewPanel(App& app) {
                    4)) {
     pv.size = 16 << idx;
     pv.texelU = pv.texelV = -1;
-    app.requestPreview();
+    app.act.requestPreview();
   }
   ImGui::EndGroup();
   if (!r.error.empty()) {

@@ -7,7 +7,7 @@
 
 #include <filesystem>
 
-#include "../app.h"
+#include "panels.h"
 
 namespace btf::ui {
 
@@ -17,14 +17,15 @@ namespace fs = std::filesystem;
 namespace {
 
 // One parameter widget; commits through App::setParam (drags merge into one undo step).
-void editParam(App& app, const std::string& ptr, const ParamDecl& d, const json& value) {
+void editParam(const SceneView& app, const std::string& ptr, const ParamDecl& d,
+               const json& value) {
   ImGui::PushID(ptr.c_str());
   const char* label = d.name.c_str();
   const double lo = std::isfinite(d.min) ? d.min : -1e6, hi = std::isfinite(d.max) ? d.max : 1e6;
   const float speed = float(std::isfinite(d.max) && std::isfinite(d.min) ? (hi - lo) / 400 : 0.01);
   auto commit = [&](const json& v) {
     try {
-      app.setParam(ptr, v, !ImGui::IsItemActivated());
+      app.act.setParam(ptr, v, !ImGui::IsItemActivated());
     } catch (const std::exception&) {
       // shown below the field
     }
@@ -112,32 +113,33 @@ void editParam(App& app, const std::string& ptr, const ParamDecl& d, const json&
   ImGui::PopID();
 }
 
-void editDecl(App& app, const std::string& base, const TypeDecl& decl, const json& obj) {
+void editDecl(const SceneView& app, const std::string& base, const TypeDecl& decl,
+              const json& obj) {
   for (const ParamDecl& d : decl.params)
     if (obj.contains(d.name)) editParam(app, base + "/" + d.name, d, obj[d.name]);
 }
 
-void tryEdit(App& app, const std::string& label, const std::function<void(json&)>& f) {
+void tryEdit(const SceneView& app, const std::string& label, const std::function<void(json&)>& f) {
   try {
     app.doc.edit(label, f);
   } catch (const std::exception& e) {
-    app.message(e.what(), true);
+    app.act.message(e.what(), true);
   }
 }
 
 }  // namespace
 
-void drawScenePanel(App& app) {
-  if (!ImGui::Begin("Scene", &app.panels["Scene"])) {
+void drawScenePanel(const SceneView& app) {
+  if (!ImGui::Begin("Scene", &app.open)) {
     ImGui::End();
     return;
   }
   const json j = json::parse(app.doc.json());
   ImGui::Text("%s%s", app.doc.path().empty() ? "(unsaved scene)" : app.doc.path().c_str(),
               app.doc.dirty() ? " — modified" : "");
-  if (ImGui::Button("Undo")) app.undo();
+  if (ImGui::Button("Undo")) app.act.undo();
   ImGui::SameLine();
-  if (ImGui::Button("Redo")) app.redo();
+  if (ImGui::Button("Redo")) app.act.redo();
   ImGui::SameLine();
   ImGui::TextDisabled("%zu step(s)", app.doc.undoDepth());
 
@@ -220,7 +222,7 @@ void drawScenePanel(App& app) {
           for (auto m = j["materials"].begin(); m != j["materials"].end(); ++m)
             if (ImGui::Selectable(m.key().c_str(), m.key() == mat)) {
               try {
-                app.setParam(base + "/material", m.key());
+                app.act.setParam(base + "/material", m.key());
               } catch (const std::exception&) {
               }
             }

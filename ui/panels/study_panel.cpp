@@ -7,14 +7,14 @@
 #include <algorithm>
 #include <cmath>
 
-#include "../app.h"
+#include "panels.h"
 #include "widgets.h"
 
 namespace btf::ui {
 
-void drawStudyPanel(App& app) {
+void drawStudyPanel(const StudyView& app) {
   StudyState& s = app.study;
-  if (!ImGui::Begin("Study", &app.panels["Study"])) {
+  if (!ImGui::Begin("Study", &app.open)) {
     ImGui::End();
     return;
   }
@@ -24,13 +24,13 @@ void drawStudyPanel(App& app) {
   ImGui::SameLine();
   if (ImGui::Button("Load")) {
     try {
-      app.loadStudy(dir);
+      app.act.loadStudy(dir);
     } catch (const std::exception& e) {
-      app.message(e.what(), true);
+      app.act.message(e.what(), true);
     }
   }
   ImGui::SameLine();
-  if (ImGui::Button("Run study")) app.startStudy(dir);
+  if (ImGui::Button("Run study")) app.act.startStudy(dir);
   if (!s.error.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.3f, 1), "%s", s.error.c_str());
   if (s.points.empty()) {
     ImGui::TextDisabled("No study loaded: run one (Jobs → Study) or load a folder with study.csv.");

@@ -9,13 +9,13 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
-#include "../app.h"
+#include "panels.h"
 
 namespace btf::ui {
 
 namespace {
 
-void rebuild(App& app) {
+void rebuild(const TileViewView& app) {
   TileViewState& t = app.tile;
   t.builtRevision = app.doc.revision();
   t.error.clear();
@@ -62,9 +62,9 @@ void rebuild(App& app) {
 
 }  // namespace
 
-void drawTileView(App& app) {
+void drawTileView(const TileViewView& app) {
   TileViewState& t = app.tile;
-  if (!ImGui::Begin("Tile view", &app.panels["Tile view"])) {
+  if (!ImGui::Begin("Tile view", &app.open)) {
     ImGui::End();
     return;
   }
@@ -145,7 +145,7 @@ void drawTileView(App& app) {
     const int id = int(rgba[0]) + 256 * int(rgba[1]);
     t.selectedPart = id - 1;
     if (id > 0 && id - 1 < int(app.doc.scene().parts.size()))
-      app.message("selected part '" + app.doc.scene().parts[size_t(id - 1)].name + "'");
+      app.act.message("selected part '" + app.doc.scene().parts[size_t(id - 1)].name + "'");
   }
   if (ImGui::IsItemHovered() && ImGui::GetIO().MouseWheel != 0)
     t.distance = std::clamp(t.distance * std::pow(0.9f, ImGui::GetIO().MouseWheel), 0.5f, 20.0f);

@@ -1,0 +1,101 @@
+// What each panel keeps between frames (one struct per panel), apart from the App that owns
+// them: a panel is handed its own state and the few shared things it reads (panels.h).
+#pragma once
+#include <btf/compress/compress.h>
+
+#include <array>
+#include <chrono>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gl/gl.h"
+#include "preview.h"
+
+namespace btf::ui {
+
+// --- per-panel state -------------------------------------------------------------------------
+
+struct PreviewState {
+  double thetaV = 0, phiV = 0, thetaL = 30, phiL = 0;  // degrees
+  int size = 64;
+  int texelU = -1, texelV = -1;  // picked texel (-1: centre)
+  float exposure = 1;
+  bool logScale = false;
+  bool tileAverage = true;  // BRDF hemisphere: tile average (else the picked texel)
+  uint64_t requestedRevision = ~0ull, generation = 0;
+  bool dirty = true;  // a new request is due
+  std::chrono::steady_clock::time_point requestTime;
+  double firstImageSeconds = -1;  // latency of the last request's first image
+  PreviewResult result;
+  uint64_t stamp = 0, imageStamp = ~0ull, brdfStamp = ~0ull;  // results polled / uploaded
+  gl::Texture image, hemisphere, matrix;
+};
+
+struct InspectorState {
+  std::string compressed, reference;  // .cbtf and the raw store it came from
+  std::shared_ptr<CompressedBtf> cbtf;
+  // Shared: a running comparison keeps the decoders it reads even if another file is opened.
+  std::shared_ptr<const Decoder> decoder, refDecoder;
+  std::string header;  // codec, ratio, components (one paragraph)
+  double ratio = 0;
+  bool haveReport = false;
+  ErrorReport report;
+  int comparing = 0;  // job id of a running comparison
+  int view = 0, light = 0;
+  gl::Texture texelMap, dirMap, original, reconstructed, difference;
+  bool texturesDirty = true;
+  struct Row {
+    std::string codec;
+    double ratio, rmse, relRmse, psnr;
+  };
+  std::vector<Row> codecs;  // one row per compared file
+};
+
+struct ObjectState {
+  std::string shape = "sphere";  // plane | sphere | cylinder | vase | cushion | chair
+  std::string loadedShape;
+  gl::Mesh mesh;
+  float yaw = 0.6f, pitch = 0.5f, distance = 3.2f;
+  float lightTheta = 40, lightPhi = 30;  // degrees, in the camera's frame
+  float exposure = 1.5f, tiling = 2;
+  int toneMap = 1;
+  bool bilinear = true;
+  gl::Framebuffer fb;
+  gl::Program program;
+  std::string programError;
+  std::vector<std::unique_ptr<gl::TextureBuffer>> buffers;  // bound arrays of the decoder
+  std::string bound;                                        // path of the bound file
+  double frameMs = 0;  // GPU-inclusive time of the last object pass (rendered on change only)
+  float renderScale = 0.5f;
+  std::string renderedKey;
+  int bands = 16;  // bands of rows per pass, sized from the last pass to ~20 ms a frame
+  int band = -1;   // next band to render; -1 when the pass is complete
+  double passMs = 0;
+};
+
+struct TileViewState {
+  float yaw = 0.8f, pitch = 0.9f, distance = 3.5f;
+  int selectedPart = -1;
+  uint64_t builtRevision = ~0ull;
+  std::string error;
+  gl::Mesh mesh, outline, lightLine;
+  gl::Program program, lines;
+  gl::Framebuffer fb, pick;
+  float Lx = 1, Ly = 1, zmin = 0, zmax = 0;
+  std::vector<std::array<float, 3>> partColours;
+};
+
+struct StudyState {
+  std::string dir;  // folder of study.csv
+  struct Point {
+    std::string label;
+    double seconds, error;
+    bool pareto;
+  };
+  std::vector<Point> points;
+  std::string chosen;  // label of the configuration matching the scene's settings
+  std::string error;
+};
+
+}  // namespace btf::ui

@@ -1,0 +1,91 @@
+// The panels, one per file (Tracy's View split): each is drawn from a view of exactly what it
+// uses — its open flag, its own state, the shared state it reads, and the studio's actions —
+// built by App::frame().
+#pragma once
+#include <btf/ops/request.h>
+
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "../document.h"
+#include "../job_requests.h"
+#include "../jobs.h"
+#include "../panel_state.h"
+#include "../preview.h"
+#include "../studio_actions.h"
+
+namespace btf::ui {
+
+struct SceneView {
+  bool& open;
+  Document& doc;
+  std::map<std::string, std::string>& fieldErrors;  // JSON pointer → engine error
+  TileViewState& tile;
+  StudioActions& act;
+};
+struct TileViewView {
+  bool& open;
+  const Document& doc;
+  PreviewState& pv;
+  TileViewState& tile;
+  int width, height;
+  StudioActions& act;
+};
+struct PreviewView {
+  bool& open;
+  PreviewWorker& preview;
+  PreviewState& pv;
+  StudioActions& act;
+};
+struct BrdfView {
+  bool& open;
+  PreviewState& pv;
+};
+struct JobsView {
+  bool& open;
+  const Document& doc;
+  JobForm& form;
+  JobQueue& jobs;
+  StudioActions& act;
+};
+struct InspectorView {
+  bool& open;
+  InspectorState& insp;
+  PreviewState& pv;
+  StudioActions& act;
+};
+struct ObjectView {
+  bool& open;
+  ObjectState& obj;
+  InspectorState& insp;
+  int width, height;
+  StudioActions& act;
+};
+struct StudyView {
+  bool& open;
+  StudyState& study;
+  StudioActions& act;
+};
+
+void updatePreview(const PreviewView& app);  // polls the worker, uploads textures (every frame)
+void drawScenePanel(const SceneView& app);
+void drawTileView(const TileViewView& app);
+void drawPreviewPanel(const PreviewView& app);
+void drawBrdfPanel(const BrdfView& app);
+void drawJobsPanel(const JobsView& app);
+void drawInspectorPanel(const InspectorView& app);
+void drawObjectViewer(const ObjectView& app);
+void drawStudyPanel(const StudyView& app);
+/// Renders the GLSL decoder into a float target at `samples` random (x, y, ωi, ωo) and compares
+/// with the CPU decoder (the script's check_glsl action).
+bool checkGlsl(const ObjectView& app, int samples, double tolerance, nlohmann::json* result);
+/// One option of a request edited through its declaration: drags within the declared range,
+/// combos for choices, a checkbox for flags, text for the rest; the doc is the tooltip. A
+/// refused value leaves the request as it was and puts the engine's message in `error`.
+/// Returns true when the request changed.
+bool requestParam(ops::Request& r, const ParamDecl& d, std::string* error);
+/// Shader source by file name (embedded at build time; read from BTF_SHADER_DIR when set).
+std::string shaderSource(const std::string& name);
+
+}  // namespace btf::ui
