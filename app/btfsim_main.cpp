@@ -25,13 +25,13 @@ struct Bound {
 std::string help(const CommandDecl& c, const btf::ParamDecl& d) {
   std::string s = d.doc;
   if (d.type == btf::ParamType::Int || d.type == btf::ParamType::Float) {
-    char b[96];
-    std::snprintf(b, sizeof b, " [%g..%g", d.min, d.max);
-    s += b;
-    if (!c.sceneKeys.count(d.name)) {
-      std::snprintf(b, sizeof b, "; default %g", d.def.at(0));
-      s += b;
-    }
+    const char* f = d.type == btf::ParamType::Int ? "%.0f" : "%.10g";
+    char lo[32], hi[32], def[32];
+    std::snprintf(lo, sizeof lo, f, d.min);
+    std::snprintf(hi, sizeof hi, f, d.max);
+    std::snprintf(def, sizeof def, f, d.def.at(0));
+    s += std::string(" [") + (d.minExclusive ? "(" : "") + lo + ".." + hi;
+    if (!c.sceneKeys.count(d.name)) s += std::string("; default ") + def;
     s += "]";
   } else if (d.type == btf::ParamType::Enum) {
     s += " [";
@@ -83,6 +83,12 @@ int main(int argc, char** argv) {
         o = sub->add_option(names, b.lists[d.name], h + " (repeatable)");
       else
         o = sub->add_option(names, b.values[d.name], h);
+      if (d.type != btf::ParamType::Bool)
+        o->type_name(d.type == btf::ParamType::Int     ? "INT"
+                     : d.type == btf::ParamType::Float ? "NUMBER"
+                     : d.type == btf::ParamType::Enum  ? "CHOICE"
+                     : d.type == btf::ParamType::Path  ? "PATH"
+                                                       : "TEXT");
       if (d.required) o->required();
     }
   }

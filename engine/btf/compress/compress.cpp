@@ -170,7 +170,11 @@ void writeErrorMaps(const ErrorReport& r, const std::string& dir) {
       rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = v[i];
       mx = std::max(mx, v[i]);
     }
-    writeRgbImage(dir + "/" + name + ".exr", w, h, rgb);
+    writeRgbImage(dir + "/" + name + ".exr", w, h, rgb, 1.0f, true,
+                  {{"units", "RMSE of the aBRDF, 1/sr (grey)"},
+                   {"map", name == "texel_rmse" ? "per texel: columns u, rows v (v up)"
+                                                : "per direction pair: columns light, rows view"},
+                   {"peak", std::to_string(r.peak)}});
     writeRgbImage(dir + "/" + name + ".png", w, h, rgb, mx > 0 ? 1.f / mx : 1.f);
   };
   write("texel_rmse", r.nu, r.nv, r.texelRmse);
