@@ -166,8 +166,14 @@ void exportBtf(const Call& c) {
 
 namespace {
 
-json directionsJson(const BtfInfo& I) {
-  return {{"set", I.directionSet}, {"count", I.nDirs()}, {"theta_phi_deg", I.dirsDeg}};
+// The keys both kinds of file report first, in the same shape.
+void headerJson(json& j, const std::string& path, const char* format, const BtfInfo& I) {
+  j["path"] = path;
+  j["format"] = format;
+  j["scene"] = I.sceneName;
+  j["scene_hash"] = I.sceneHash;
+  j["texels"] = {I.nu, I.nv};
+  j["directions"] = {{"set", I.directionSet}, {"count", I.nDirs()}, {"theta_phi_deg", I.dirsDeg}};
 }
 
 json parsedOrString(const std::string& s) {
@@ -187,12 +193,7 @@ void info(const Call& c) {
   if (isCompressedFile(path)) {
     const CompressedBtf b = readCompressed(path);  // verifies every checksum or throws
     const BtfInfo& I = b.info;
-    j["path"] = path;
-    j["format"] = "compressed";
-    j["scene"] = I.sceneName;
-    j["scene_hash"] = I.sceneHash;
-    j["texels"] = {I.nu, I.nv};
-    j["directions"] = directionsJson(I);
+    headerJson(j, path, "compressed", I);
     j["file_bytes"] = b.fileBytes();
     j["verified"] = true;
     j["codec"] = b.codec;
@@ -226,12 +227,7 @@ void info(const Call& c) {
   const BtfInfo& I = rd.info();
   const auto v = rd.verify();
   const bool ok = v.badChunks.empty() && v.vmfOk;
-  j["path"] = path;
-  j["format"] = "raw";
-  j["scene"] = I.sceneName;
-  j["scene_hash"] = I.sceneHash;
-  j["texels"] = {I.nu, I.nv};
-  j["directions"] = directionsJson(I);
+  headerJson(j, path, "raw", I);
   j["file_bytes"] = rd.layout().totalBytes;
   j["verified"] = ok;
   j["tile_size"] = {I.Lx, I.Ly};
