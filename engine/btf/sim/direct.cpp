@@ -79,10 +79,22 @@ float DirectIllumination::shadowMapVisibility(int l, const Vec3& p, const Vec3& 
   const float bias = m_settings.biasScale * m_cell * (0.25f + 1.5f * slope);
   const uint32_t* prims = m_maps.primRow(l);
   const float* depths = m_maps.depthRow(l);
+  const float Lx = float(g.Lx), Ly = float(g.Ly);
+  const float qx = p.x - p.z * L.slopeX, qy = p.y - p.z * L.slopeY;  // q before wrapping
+  const float copy2 = 0.25f * std::min(Lx, Ly) * std::min(Lx, Ly);
   auto lit = [&](int i, int j) -> float {
     const size_t k = size_t(j) * su + i;
-    // A triangle is planar and cannot shadow itself: same primitive means lit.
-    return (prims[k] == prim || r >= depths[k] - bias) ? 1.0f : 0.0f;
+    if (r >= depths[k] - bias) return 1.0f;
+    if (prims[k] != prim) return 0.0f;
+    // A triangle is planar and cannot shadow itself — but a periodic copy of it can: at grazing
+    // light the first hit toward the light is often the same triangle one period away. The
+    // tap's hit point, on the copy nearest q, must be this copy (within half a period of p).
+    float gx = (float(i) + 0.5f) * Lx * m_invSu, gy = (float(j) + 0.5f) * Ly * m_invSv;
+    gx += Lx * std::round((qx - gx) / Lx);
+    gy += Ly * std::round((qy - gy) / Ly);
+    const float d = depths[k];
+    const float ex = gx + d * L.w.x - p.x, ey = gy + d * L.w.y - p.y, ez = d * L.w.z - p.z;
+    return ex * ex + ey * ey + ez * ez < copy2 ? 1.0f : 0.0f;
   };
   return (lit(i0, j0) * (1 - tx) + lit(i1, j0) * tx) * (1 - ty) +
          (lit(i0, j1) * (1 - tx) + lit(i1, j1) * tx) * ty;
