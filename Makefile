@@ -5,7 +5,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps build demo test bench clean studio screenshots
+.PHONY: all deps build demo test bench clean studio screenshots sanitize
 
 all: build
 
@@ -32,9 +32,20 @@ screenshots: build
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
 
+# The engine's tests under AddressSanitizer + UndefinedBehaviorSanitizer with leak checking
+# (suppressions, each with its reason: tests/lsan.supp). Not part of `make test` (a full
+# rebuild and ~3x slower tests); see docs/performance.md.
+sanitize: deps
+	cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DBTF_SANITIZE=ON \
+	  -DBTF_BUILD_UI=OFF
+	cmake --build build-asan -j $(JOBS)
+	cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 \
+	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp \
+	  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ctest --output-on-failure -j $(JOBS)
+
 bench: build
 	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json --bounces 1
 	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json --spp 2 --bounces 3 --shadows map --repeat 1
 
 clean:
-	rm -rf $(BUILD_DIR) out
+	rm -rf $(BUILD_DIR) build-asan out

@@ -5,6 +5,7 @@
 #include <btf/directions/direction_set.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -193,21 +194,38 @@ namespace {
 
 class RawDecoder final : public Decoder {
  public:
-  explicit RawDecoder(std::unique_ptr<BtfReader> r) : Decoder(r->info()), m_r(std::move(r)) {}
+  explicit RawDecoder(std::unique_ptr<BtfReader> r)
+      : Decoder(r->info()),
+        m_r(std::move(r)),
+        m_verified(new std::atomic<bool>[size_t(m_info.chunks())]) {
+    for (int c = 0; c < m_info.chunks(); ++c) m_verified[size_t(c)] = false;
+  }
   void texel(int64_t t, float* out) const override {
+    verified(t);
     m_r->readTexelInto(t, out);
     const size_t n = size_t(m_info.nDirs()) * m_info.nDirs() * 3;
     for (size_t i = 0; i < n; ++i) out[i] = std::isfinite(out[i]) ? std::max(0.f, out[i]) : 0.f;
   }
   std::array<float, 3> value(int64_t t, int view, int light) const override {
     std::array<float, 3> v{};
+    verified(t);
     m_r->readValue(t, view, light, v.data());
     return v;
   }
   std::string kind() const override { return "raw"; }
 
  private:
+  // Every chunk a reader touches is checked once, the first time (readers never return values
+  // from a damaged chunk: they fail naming it). Two threads may both verify a chunk; harmless.
+  void verified(int64_t t) const {
+    if (t < 0 || t >= m_info.texels()) return;  // the reader's own range error follows
+    const size_t c = size_t(t / m_info.chunkTexels);
+    if (m_verified[c].load(std::memory_order_acquire)) return;
+    m_r->verifyChunk(int(c));
+    m_verified[c].store(true, std::memory_order_release);
+  }
   std::unique_ptr<BtfReader> m_r;
+  std::unique_ptr<std::atomic<bool>[]> m_verified;
 };
 
 }  // namespace

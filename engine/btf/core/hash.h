@@ -14,4 +14,18 @@ inline uint64_t checksum64(std::string_view s, uint64_t seed = 0) {
 }
 std::string hex64(uint64_t v);
 
+/// checksum64 over data given in pieces (a chunk verified while it streams from disk): the same
+/// value as one call over the concatenation.
+class Checksum64 {
+ public:
+  explicit Checksum64(uint64_t seed = 0);
+  void update(const void* data, size_t bytes);
+  uint64_t finish() const;
+
+ private:
+  uint64_t m_h[4];
+  unsigned char m_tail[32];
+  size_t m_tailBytes = 0, m_total = 0;
+};
+
 }  // namespace btf

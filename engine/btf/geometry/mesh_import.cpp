@@ -26,19 +26,26 @@ PolyMesh readPoly(const std::string& path) {
   mesh.request_face_status();
   mesh.request_vertex_status();
   mesh.request_edge_status();
-  static std::mutex ioMutex;  // omerr() is a process-wide stream
-  std::ostringstream log;
+  // omerr() is a process-wide stream. It is connected once to a capture stream that lives as
+  // long as the process: mostream::connect allocates a target that disconnect does not free, so
+  // connecting per read leaked one per mesh (LeakSanitizer).
+  static std::mutex ioMutex;
+  static std::ostringstream* capture = [] {
+    auto* s = new std::ostringstream;
+    omerr().connect(*s);
+    omlog().disable();
+    return s;
+  }();
   bool ok;
+  std::string msgs;
   {
     std::lock_guard lock(ioMutex);
-    omerr().connect(log);
-    omlog().disable();
+    capture->str("");
     OpenMesh::IO::Options opt;
     ok = OpenMesh::IO::read_mesh(mesh, path, opt);
-    omerr().disconnect(log);
+    msgs = capture->str();
   }
   if (!ok) throw Error(path + ": cannot read mesh (unsupported format or malformed file)");
-  const std::string msgs = log.str();
   if (msgs.find("equal vertices") != std::string::npos)
     throw Error(path + ": degenerate mesh: a face repeats a vertex");
   if (msgs.find("invalid vertex") != std::string::npos)

@@ -83,6 +83,8 @@ Opts effectOptions() {
          "glossy lobes reflect the indirect light at the texels"),
       en("colour", "auto", {"auto", "on", "off"}, "RGB (on) or one channel for grey scenes (off)"),
       en("vmf", "auto", {"auto", "on", "off"}, "store the visibility map"),
+      fl("grazing_rays", 70, 0, 90,
+         "shadow maps: lights at θi ≥ this many degrees use exact shadow rays (90 = none)"),
       in("network_voxels", 0, 0, 1024, "network density, voxels per side (0 = one per texel)"),
       in("links", 16, 1, 256, "network links per point"),
       in("gather", 4, 1, 16, "N1: network points per direct hit"),

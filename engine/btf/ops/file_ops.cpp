@@ -258,9 +258,15 @@ void info(const Call& c) {
     t += "\n";
   }
   c.rep.text = t;
-  if (!ok)
-    throw Error(path + ": corrupted: " + std::to_string(v.badChunks.size()) + " bad chunk(s)" +
-                (v.vmfOk ? "" : ", bad visibility map"));
+  if (!ok) {
+    std::string what;
+    for (int k : v.badChunks)
+      what += (what.empty() ? "" : ", ") + std::string("chunk ") + std::to_string(k) +
+              " checksum mismatch";
+    if (!v.vmfOk)
+      what += std::string(what.empty() ? "" : ", ") + "visibility-map checksum mismatch";
+    throw Error(path + ": corrupted: " + what);
+  }
   c.rep.summary = "verified " + path;
 }
 

@@ -1,6 +1,7 @@
 // The front of the use-case floor: validation, the per-run thread arena, and the one outcome of
 // a cancel (no output, no .partial left unless the caller keeps it for a resume).
 #include <btf/compress/codec.h>
+#include <btf/core/output_lock.h>
 #include <btf/core/sysinfo.h>
 #include <btf/ops/internal.h>
 #include <btf/scene/scene.h>
@@ -9,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <sstream>
 
 namespace btf::ops {
@@ -111,6 +113,8 @@ SimOptions simOptions(const Scene& scene, const Request& r) {
       if (bounces == 1) o.plan.interreflection = Toggle::Off;
     }
     o.plan.epsilon = r.f("epsilon");
+    o.grazingRays = r.f("grazing_rays");
+    o.grazingRaysForced = r.given("grazing_rays");
     const int voxels = r.i("network_voxels");
     if (voxels == 1) throw Error("--network-voxels: must be 0 (one per texel) or in 2..1024");
     if (voxels != 0) o.network.voxels = voxels;
@@ -167,6 +171,14 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
   for (const char* k : {"output"})
     if (r.has(k)) out = r.s(k);
   const bool outExisted = !out.empty() && fs::exists(out);
+  // Outputs are checked and locked before any work: one writer per output.
+  const bool folderOut =
+      r.command() == "study" || (r.command() == "export" && r.s("format") == "ubo2003");
+  std::unique_ptr<OutputLock> lock;
+  if (!out.empty()) {
+    checkOutputPath(out, folderOut);
+    if (!folderOut) lock = std::make_unique<OutputLock>(out);
+  }
   try {
     withThreads(ctx.threads, [&] {
       const std::string& n = r.command();
@@ -188,6 +200,12 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
       if (!ctx.keepPartial) fs::remove(out + ".partial", ec);
       if (!outExisted) fs::remove_all(out, ec);
     }
+    throw;
+  } catch (...) {
+    // A failed run leaves no output it began (an export's folder); a simulation keeps its
+    // .partial for --resume.
+    std::error_code ec;
+    if (!out.empty() && !outExisted) fs::remove_all(out, ec);
     throw;
   }
   rep.json["request"] = nlohmann::ordered_json::parse(r.toJson())["options"];

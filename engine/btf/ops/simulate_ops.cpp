@@ -29,7 +29,9 @@ std::string planText(const EffectPlan& p) {
   for (const auto& d : p.decisions)
     s += format("  %-16s %-4s %s%s%s\n", d.effect.c_str(), d.value.c_str(),
                 d.forced ? "[forced] " : "", d.reason.c_str(),
-                d.secondsSaved > 0 ? (" — saves ~" + formatSeconds(d.secondsSaved)).c_str() : "");
+                d.secondsSaved > 0   ? (" — saves ~" + formatSeconds(d.secondsSaved)).c_str()
+                : d.secondsSaved < 0 ? (" — costs ~" + formatSeconds(-d.secondsSaved)).c_str()
+                                     : "");
   return s;
 }
 
@@ -69,11 +71,6 @@ void simulate(const Call& c) {
     if (std::find(names.begin(), names.end(), codec) == names.end())
       throw Error("--compress: unknown codec '" + codec + "' (expected nmf, svd, perview or lpca)");
   }
-  const auto parent = std::filesystem::path(output).parent_path();
-  if (!parent.empty() && !std::filesystem::is_directory(parent))
-    throw Error(output + ": the folder " + parent.string() + " does not exist");
-  if (std::filesystem::is_directory(output))
-    throw Error(output + ": is a folder; -o needs a file path");
   SimulationJob job(scene, o);
   job.setCancel(c.ctx.cancel);
   const SimEstimate est = job.estimate(codec.empty() ? output : std::string());
@@ -152,6 +149,7 @@ void simulate(const Call& c) {
     return;
   }
   const SimReport sr = job.run(output, est, c.ctx.cancel);
+  if (!sr.resumeNote.empty()) c.warn(sr.resumeNote);
   const double evalRate = sr.evalSeconds > 0 ? double(sr.abrdfValues) / sr.evalSeconds : 0;
   const double rayRate = sr.hitMapSeconds > 0 ? double(sr.hitMapRays) / sr.hitMapSeconds : 0;
   j["network_points"] = sr.networkPoints;

@@ -5,13 +5,20 @@
 #include <btf/sim/shading.h>
 
 #include <cmath>
+#include <cstdio>
 
 namespace btf {
 
 DirectionPair pairFromDegrees(double ti, double pi, double to, double po) {
   for (double t : {ti, to})
-    if (!std::isfinite(t) || t < 0 || t >= 90)
-      throw Error("θ must be in [0, 90) degrees (got " + std::to_string(t) + ")");
+    if (!std::isfinite(t) || t < 0 || t > kMaxProbeThetaDeg) {
+      char b[160];
+      std::snprintf(b, sizeof b,
+                    "θ must be in [0, %g] degrees (got %.10g): closer to 90° the tile is seen "
+                    "edge-on and its value is not resolved in floating point",
+                    kMaxProbeThetaDeg, t);
+      throw Error(b);
+    }
   for (double p : {pi, po})
     if (!std::isfinite(p)) throw Error("φ must be a finite angle in degrees");
   return {sphericalDir(deg2rad(ti), deg2rad(pi)), sphericalDir(deg2rad(to), deg2rad(po))};

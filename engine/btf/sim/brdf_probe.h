@@ -14,7 +14,13 @@ struct DirectionPair {
   DVec3 wi, wo;  // toward the light, toward the camera (unit, z > 0)
 };
 
-/// Pair from angles in degrees; throws btf::Error for θ outside [0, 90) or non-finite values.
+/// The largest θ (degrees) a probe pair may have: up to it the path tracer and the direct probe
+/// stay within their usual time and converge to the grazing limit (tested); beyond it a ray
+/// crosses ~10⁵ tiles per unit of height and float positions no longer resolve the tile.
+constexpr double kMaxProbeThetaDeg = 89.99;
+
+/// Pair from angles in degrees; throws btf::Error for θ outside [0, kMaxProbeThetaDeg] or
+/// non-finite values, naming the limit.
 DirectionPair pairFromDegrees(double thetaI, double phiI, double thetaO, double phiO);
 
 /// Position on the reference plane of cell (a, row) of an n×n grid over the tile, jittered inside

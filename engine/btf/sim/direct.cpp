@@ -21,7 +21,8 @@ float DirectIllumination::lightVisibility(int l, const Vec3& p, const Vec3& ng,
                                           uint32_t prim) const {
   switch (m_settings.shadows) {
     case ShadowMode::Map:
-      return shadowMapVisibility(l, p, ng, prim);
+      if (!m_lights[size_t(l)].rays) return shadowMapVisibility(l, p, ng, prim);
+      [[fallthrough]];
     case ShadowMode::Rays:
       return m_tracer.occluded(DVec3(p) + m_tracer.epsilon() * DVec3(ng),
                                DVec3(m_lights[size_t(l)].w))
@@ -45,7 +46,9 @@ DirectIllumination::DirectIllumination(const PeriodicTracer& tracer,
       m_settings(settings) {
   for (const auto& d : dirs.dirs()) {
     const double c = std::max(d.w.z, 1e-7);
-    m_lights.push_back({Vec3(d.w), float(1.0 / c), float(d.w.x / c), float(d.w.y / c)});
+    const bool rays =
+        settings.shadows == ShadowMode::Map && rad2deg(d.theta) >= settings.raysFromThetaDeg - 1e-9;
+    m_lights.push_back({Vec3(d.w), float(1.0 / c), float(d.w.x / c), float(d.w.y / c), rays});
   }
   const SampleGrid& g = maps.grid();
   m_cell = float(std::max(g.Lx / g.su(), g.Ly / g.sv()));
@@ -128,9 +131,9 @@ int64_t DirectIllumination::evalTexelView(int i, int j, int view, float* out) co
       const float cosN = glm::dot(n, L.w);
       if (cosN <= 0 || glm::dot(ng, L.w) <= 0) continue;
       float vis;
-      if (m_settings.shadows == ShadowMode::Map) {
+      if (m_settings.shadows == ShadowMode::Map && !L.rays) {
         vis = shadowMapVisibility(l, p, ng, prim);
-      } else if (m_settings.shadows == ShadowMode::Rays) {
+      } else if (m_settings.shadows != ShadowMode::None) {
         vis = m_tracer.occluded(origin, DVec3(L.w)) ? 0.0f : 1.0f;
       } else {
         vis = 1.0f;

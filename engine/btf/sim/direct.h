@@ -20,6 +20,9 @@ const char* shadowModeName(ShadowMode m);
 struct DirectSettings {
   ShadowMode shadows = ShadowMode::Map;
   float biasScale = 1.0f;  // multiplies the slope-scaled shadow-map bias
+  /// Map mode: lights at θi ≥ this (degrees) use exact shadow rays, where the map's bias and
+  /// filter footprint leak light (docs/conventions.md); 90 = the map for every light.
+  double raysFromThetaDeg = 90;
 };
 
 class DirectIllumination {
@@ -48,6 +51,7 @@ class DirectIllumination {
     Vec3 w;
     float invCos;          // 1 / cos θi, for the aBRDF division
     float slopeX, slopeY;  // ωx/ωz, ωy/ωz: projection onto the reference plane
+    bool rays;             // map mode, grazing light: exact shadow rays instead
   };
   const PeriodicTracer& m_tracer;
   const TileGeometry& m_geom;

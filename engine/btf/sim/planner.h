@@ -33,7 +33,7 @@ struct EffectDecision {
   std::string value;   // on/off, a number
   std::string reason;
   bool forced = false;
-  double secondsSaved = 0;  // filled by the job's estimate
+  double secondsSaved = 0;  // filled by the job's estimate; negative: what the decision costs
 };
 
 struct EffectPlan {

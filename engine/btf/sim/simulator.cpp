@@ -97,6 +97,18 @@ const EffectPlan& SimulationJob::plan() const {
     }
     m_plan = std::make_unique<EffectPlan>(
         planEffects(*m_tracer, m_materials, m_dirs, m_network.get(), m_opt.plan));
+    if (m_plan->selfShadowing && m_opt.shadows == ShadowMode::Map && m_opt.method != "pt") {
+      // Where the shadow map cannot be trusted, exact rays take over (docs/conventions.md).
+      int grazing = 0;
+      for (const auto& d : m_dirs.dirs()) grazing += rad2deg(d.theta) >= m_opt.grazingRays - 1e-9;
+      char value[32], reason[256];
+      std::snprintf(value, sizeof value, grazing ? "θ≥%g°" : "none", m_opt.grazingRays);
+      std::snprintf(reason, sizeof reason,
+                    "%d of %d lights at θi ≥ %g° use exact shadow rays: the map's bias and filter "
+                    "leak light at grazing incidence (box cavity +5 %% albedo at 76–87°)",
+                    grazing, m_dirs.size(), m_opt.grazingRays);
+      m_plan->decisions.push_back({"grazing_rays", value, reason, m_opt.grazingRaysForced, 0});
+    }
   }
   return *m_plan;
 }
@@ -287,9 +299,11 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   const ShadowMode mode = pl.selfShadowing ? m_opt.shadows : ShadowMode::None;
   std::vector<float> buf(size_t(nD) * 3);
   const int calls = std::min(64, nD * 4);
-  auto timeKernel = [&](ShadowMode m, const NetworkGather* gather, bool pathTrace) {
+  auto timeKernel = [&](ShadowMode m, const NetworkGather* gather, bool pathTrace,
+                        double grazingRays) {
     checkCancel();
-    DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps, {m, m_opt.shadowBias});
+    DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
+                              {m, m_opt.shadowBias, grazingRays});
     TexelKernel k{*m_tracer, m_materials, m_dirs, maps, direct, gather, pathTrace, {}, 1, {}};
     k.ptPaths = 1;
     k.pt.maxBounces = pl.interreflection ? pl.bounces : 1;
@@ -298,18 +312,26 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     for (int c = 0; c < calls; ++c) k.eval(c % cal, (c / cal) % cal, (c * 7) % nD, buf.data());
     return since(t) / calls * (pathTrace ? m_opt.ptPaths : 1);
   };
-  const double perSampleView = timeKernel(mode, nullptr, pt);
+  const double perSampleView = timeKernel(mode, nullptr, pt, m_opt.grazingRays);
   e.hitMapSeconds = double(nD) * double(samples) * perRay / threads;
+  if (EffectDecision* gr = plm.find("grazing_rays"); gr && gr->value != "none") {
+    // What exact rays for the grazing lights cost over the map alone.
+    const double mapOnly = timeKernel(mode, nullptr, false, 90);
+    const double cost =
+        double(samples) * double(nD) * std::max(0.0, perSampleView - mapOnly) / threads;
+    gr->secondsSaved = -cost;  // a cost: printed as such, kept out of the store's header
+  }
   e.evalSeconds = double(samples) * double(nD) * perSampleView / threads;
   // What each planner decision saves (or would cost).
   if (!pt && !pl.selfShadowing) {
-    const double with = timeKernel(m_opt.shadows, nullptr, false);
+    const double with = timeKernel(m_opt.shadows, nullptr, false, m_opt.grazingRays);
     plm.find("self_shadowing")->secondsSaved =
         std::max(0.0, double(samples) * double(nD) * (with - perSampleView) / threads);
   }
   if (!pt && m_network && !m_network->points().empty()) {
     // Network solve: two lights on one thread; gather: the same calls with the final gather.
-    DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps, {mode, m_opt.shadowBias});
+    DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
+                              {mode, m_opt.shadowBias, m_opt.grazingRays});
     NetworkLighting light;
     const int P = pl.interreflection ? pl.bounces : std::max(2, m_opt.plan.maxAutoBounces);
     const int nCal = std::min(2, nD);
@@ -324,7 +346,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     checkCancel();
     const double perLight = (light.solveSeconds() - light.setupSeconds()) / nCal;
     NetworkGather gather(*m_network, light, m_geom, m_materials);
-    const double withGather = timeKernel(mode, &gather, false);
+    const double withGather = timeKernel(mode, &gather, false, m_opt.grazingRays);
     const double lightSeconds = light.setupSeconds() + perLight * nD / threads;
     const double gatherSeconds =
         double(samples) * double(nD) * std::max(0.0, withGather - perSampleView) / threads;
@@ -341,7 +363,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
       });
       checkCancel();
       NetworkGather gg(*m_network, lg, m_geom, m_materials);
-      const double withGlossy = timeKernel(mode, &gg, false);
+      const double withGlossy = timeKernel(mode, &gg, false, m_opt.grazingRays);
       plm.find("glossy_indirect")->secondsSaved =
           double(samples) * double(nD) * std::max(0.0, withGlossy - withGather) / threads;
     }
@@ -376,6 +398,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   if (!outPath.empty()) writer = std::make_unique<BtfWriter>(outPath, info, m_opt.resume);
   r.chunks = info.chunks();
   r.chunksResumed = writer ? writer->chunksDone() : 0;
+  if (writer) r.resumeNote = writer->resumeNote();
   if (m_network && gi) {
     r.networkSeconds = m_network->buildSeconds();
     r.networkPoints = m_network->points().size();
@@ -407,7 +430,8 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   }
 
   const ShadowMode mode = pl.selfShadowing ? m_opt.shadows : ShadowMode::None;
-  DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps, {mode, m_opt.shadowBias});
+  DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
+                            {mode, m_opt.shadowBias, m_opt.grazingRays});
   NetworkLighting lighting;
   std::unique_ptr<NetworkGather> gather;
   const auto renderStart = Clock::now();
@@ -577,7 +601,8 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
   std::vector<float> img(size_t(nu) * size_t(nv) * 3, 0.f);
   throwIfCancelled(cancel, "preview");
   const ShadowMode mode = selfShadowing ? m_opt.shadows : ShadowMode::None;
-  DirectIllumination direct(*m_tracer, m_materials, pair, maps, {mode, m_opt.shadowBias});
+  DirectIllumination direct(*m_tracer, m_materials, pair, maps,
+                            {mode, m_opt.shadowBias, m_opt.grazingRays});
   NetworkLighting lighting;
   std::unique_ptr<NetworkGather> gather;
   if (gi) {

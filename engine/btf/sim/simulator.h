@@ -31,6 +31,10 @@ struct SimOptions {
   int spp = 1;
   ShadowMode shadows = ShadowMode::Map;
   float shadowBias = 1.0f;
+  /// Map mode: lights at θi ≥ this (degrees) use exact shadow rays (90 = none): the planner's
+  /// grazing_rays decision.
+  double grazingRays = 70;
+  bool grazingRaysForced = false;  // given by the user rather than the default
   uint64_t seed = 1;
   uint64_t memoryBudget = uint64_t(4) << 30;
   uint64_t maxChunkBytes = uint64_t(256) << 20;  // resume granularity
@@ -70,6 +74,7 @@ struct SimReport {
   uint64_t brdfEvaluations = 0;  // (sample, view, light) BRDF × visibility evaluations
   uint64_t peakRssBytes = 0, outputBytes = 0;
   int chunks = 0, chunksResumed = 0;
+  std::string resumeNote;  // a --resume that found a truncated or unreadable .partial
 };
 
 class SimulationJob {

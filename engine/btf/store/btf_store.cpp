@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 namespace btf {
@@ -118,17 +119,43 @@ BtfWriter::BtfWriter(const std::string& path, const BtfInfo& info, bool resume)
   m_layout = BtfLayout::of(info, header.size());
   m_done.assign(size_t(info.chunks()), false);
   const bool exists = std::filesystem::exists(m_partial);
-  if (resume && exists) {
-    // Reuse the partial only if it was made by the very same job.
-    {
-      BtfReader probe(m_partial);
-      if (probe.headerJson() != header)
-        throw Error(m_partial +
-                    ": cannot resume: it was made with a different scene or settings "
-                    "(rerun without --resume to start over)");
+  // The partial's own header, read alone (a truncated file still has it): "" when unreadable.
+  auto partialHeader = [&]() -> std::string {
+    std::ifstream f(m_partial, std::ios::binary);
+    char first[container::kPreambleBytes] = {};
+    if (!f.read(first, sizeof first)) return "";
+    try {
+      const auto pre = container::parsePreamble(first, std::filesystem::file_size(m_partial),
+                                                kMagic, m_partial, "BTF store");
+      std::string h(pre.headerBytes, '\0');
+      if (!f.read(h.data(), std::streamsize(h.size()))) return "";
+      container::checkHeader(h, pre, m_partial);
+      return h;
+    } catch (const Error&) {
+      return "";
     }
+  };
+  const std::string found = resume && exists ? partialHeader() : std::string();
+  if (resume && exists && found.empty())
+    m_resumeNote = m_partial + " was unreadable (cut short inside its header): starting over";
+  if (resume && exists && !found.empty()) {
+    // Reuse the partial only if it was made by the very same job.
+    if (found != header)
+      throw Error(m_partial +
+                  ": cannot resume: it was made with a different scene or settings "
+                  "(rerun without --resume to start over)");
     m_fd = ::open(m_partial.c_str(), O_RDWR);
     if (m_fd < 0) throw Error(sysError(m_partial, "cannot open for resuming"));
+    const uint64_t size = std::filesystem::file_size(m_partial);
+    if (size != m_layout.totalBytes) {
+      // Cut short (a full disk, a killed copy): back to its size; chunks past the cut fail
+      // their checksums below and are recomputed.
+      if (::ftruncate(m_fd, off_t(m_layout.totalBytes)) != 0)
+        throw Error(sysError(m_partial, "cannot restore the size of the truncated partial"));
+      m_resumeNote = m_partial + " was truncated (" + std::to_string(size) + " of " +
+                     std::to_string(m_layout.totalBytes) +
+                     " bytes): resuming from the chunks it still holds";
+    }
     std::vector<TableEntry> table(size_t(info.chunks()));
     if (::pread(m_fd, table.data(), table.size() * sizeof(TableEntry),
                 off_t(m_layout.tableOffset)) != ssize_t(table.size() * sizeof(TableEntry)))
@@ -314,12 +341,29 @@ std::vector<float> BtfReader::readVmf(int dir) const {
   return out;
 }
 
+void BtfReader::verifyChunk(int c) const {
+  if (c < 0 || c >= m_info.chunks()) throw Error(m_path + ": chunk index out of range");
+  const uint64_t bytes = uint64_t(m_info.chunkEnd(c) - m_info.chunkBegin(c)) * m_info.texelBytes();
+  const uint64_t off = m_layout.chunkOffset(m_info, c);
+  std::vector<char> buf(size_t(std::min<uint64_t>(bytes, uint64_t(8) << 20)));
+  Checksum64 sum;
+  for (uint64_t done = 0; done < bytes;) {
+    const uint64_t n = std::min<uint64_t>(buf.size(), bytes - done);
+    preadAll(buf.data(), n, off + done);
+    sum.update(buf.data(), size_t(n));
+    done += n;
+  }
+  if (sum.finish() != m_checksums[size_t(c)])
+    throw Error(m_path + ": chunk " + std::to_string(c) +
+                " checksum mismatch (corrupted or incomplete data)");
+}
+
 BtfReader::Verification BtfReader::verify() const {
   Verification v;
   v.chunks = m_info.chunks();
   for (int c = 0; c < m_info.chunks(); ++c) {
     try {
-      readChunk(c);
+      verifyChunk(c);
     } catch (const Error&) {
       v.badChunks.push_back(c);
     }

@@ -65,6 +65,9 @@ class BtfWriter {
   bool chunkDone(int c) const { return m_done[size_t(c)] != 0; }
   int chunksDone() const;
   bool resumed() const { return m_resumed; }
+  /// What resuming found, when it was not a clean resume (a truncated or unreadable .partial):
+  /// one line for the user; empty otherwise.
+  const std::string& resumeNote() const { return m_resumeNote; }
   /// VMF of all directions: nDirs × nu × nv × 2 floats (coverage, mean depth).
   void writeVmf(const std::vector<float>& vmf);
   /// Writes a chunk's data and then marks it done in the table.
@@ -82,6 +85,7 @@ class BtfWriter {
   std::vector<uint8_t> m_done;  // bytes, not bits: a background writer marks chunks done
   bool m_resumed = false;
   bool m_finished = false;
+  std::string m_resumeNote;
 };
 
 class BtfReader {
@@ -113,6 +117,9 @@ class BtfReader {
   };
   /// Reads everything and checks every checksum.
   Verification verify() const;
+  /// Streams chunk c through its checksum (8 MiB at a time, nothing kept); throws btf::Error
+  /// "PATH: chunk C checksum mismatch …" when it differs.
+  void verifyChunk(int c) const;
 
  private:
   void preadAll(void* data, uint64_t bytes, uint64_t offset) const;

@@ -38,7 +38,7 @@ TEST(Btfsim, BadArgumentsAreOneLineErrorsWithNonzeroExit) {
       {"simulate " + scenePath("brick") +
            " -o x.btf -q --texels 64 --dirs 16x32 --memory-budget 100M",
        "refusing to start: memory budget"},
-      {"brdf " + scenePath("brick") + " --pair 95,0,0,0", "θ must be in [0, 90)"},
+      {"brdf " + scenePath("brick") + " --pair 95,0,0,0", "θ must be in [0, 89.99] degrees"},
       {"brdf " + scenePath("brick") + " --pair 10,0,0", "expected θi,φi,θo,φo"},
       {"info " + (dir / "broken.json").string(), "not a BTF store"},
   };

@@ -1,6 +1,8 @@
 // No energy from nowhere: white scenes (albedo 1) keep a directional albedo ≤ 1 (plus the
 // discretisation's tolerance) at every light of a 16×32 grid, grazing ones included, in every
 // shadow mode — V-grooves with 80° walls, a box cavity and packed spheres.
+#include <btf/sim/brdf_probe.h>
+#include <btf/sim/path_tracer.h>
 #include <btf/sim/simulator.h>
 #include <gtest/gtest.h>
 
@@ -25,12 +27,13 @@ const char* kPacked = R"({"type": "plane", "material": "m"},
   {"type": "sphere", "material": "m", "center": [0.5, 0.5, 0.25], "radius": 0.25, "segments": 48})";
 
 // Directional albedo Σ_v aBRDF(v, l) cos θv Ω_v of the tile average, for every light.
-std::vector<double> albedos(const Scene& s, ShadowMode mode, int bounces) {
+std::vector<double> albedos(const Scene& s, ShadowMode mode, int bounces, double grazingRays) {
   SimOptions o;
   o.nu = o.nv = 4;
   o.spp = 4;
   o.directions = "16x32";
   o.shadows = mode;
+  o.grazingRays = grazingRays;
   o.progress = false;
   o.plan.interreflection = bounces > 1 ? Toggle::On : Toggle::Off;
   o.plan.bounces = bounces > 1 ? bounces : 0;
@@ -57,19 +60,22 @@ TEST(Energy, WhiteScenesNeverReflectMoreThanTheyReceive) {
                {"box cavity", whiteScene(kCavity)},
                {"packed spheres", whiteScene(kPacked)}};
   for (const auto& c : cases)
-    for (ShadowMode mode : {ShadowMode::Map, ShadowMode::Rays})
+    for (const auto& [mode, grazing] :
+         {std::pair{ShadowMode::Map, 70.0}, std::pair{ShadowMode::Map, 90.0},
+          std::pair{ShadowMode::Rays, 90.0}})
       for (int bounces : {1, 3}) {
-        SCOPED_TRACE(std::string(c.name) + ", " + shadowModeName(mode) +
-                     ", P = " + std::to_string(bounces));
+        const std::string label = std::string(shadowModeName(mode)) +
+                                  (mode == ShadowMode::Map && grazing < 90 ? "+rays" : "");
+        SCOPED_TRACE(std::string(c.name) + ", " + label + ", P = " + std::to_string(bounces));
         const Scene s = test::sceneFromJson(c.scene);
-        const auto a = albedos(s, mode, bounces);
+        const auto a = albedos(s, mode, bounces, grazing);
         const DirectionSet d = DirectionSet::fromName("16x32");
         double worst = 0;
         int worstL = 0;
         for (int l = 0; l < d.size(); ++l)
           if (a[size_t(l)] > worst) worst = a[size_t(l)], worstL = l;
-        std::printf("  %-15s %-4s P=%d: max albedo %.4f at θi %.1f° φi %.1f°\n", c.name,
-                    shadowModeName(mode), bounces, worst, rad2deg(d[worstL].theta),
+        std::printf("  %-15s %-8s P=%d: max albedo %.4f at θi %.1f° φi %.1f°\n", c.name,
+                    label.c_str(), bounces, worst, rad2deg(d[worstL].theta),
                     rad2deg(d[worstL].phi));
         if (std::getenv("BTF_ENERGY_RINGS")) {
           for (int ring = 0; ring < 16; ++ring) {
@@ -79,7 +85,71 @@ TEST(Energy, WhiteScenesNeverReflectMoreThanTheyReceive) {
           }
         }
         EXPECT_LE(worst, 1.03);
+        if (mode == ShadowMode::Map && grazing < 90) {
+          // The default map mode stays with the exact rays, light by light.
+          const auto exact = albedos(s, ShadowMode::Rays, bounces, 90);
+          double dev = 0;
+          size_t at = 0;
+          for (size_t l = 0; l < a.size(); ++l)
+            if (exact[l] > 0.05 && std::abs(a[l] - exact[l]) / exact[l] > dev)
+              dev = std::abs(a[l] - exact[l]) / exact[l], at = l;
+          std::printf(
+              "  %-15s map+rays vs rays P=%d: largest relative difference %.2f %% (θi "
+              "%.1f°)\n",
+              c.name, bounces, 100 * dev, rad2deg(d[int(at)].theta));
+          // Measured 1.0–1.7 % on grooves and spheres, 3.4 % (direct) and 5.1 % (P = 3) on the
+          // 0.1-thick walls of the cavity: thin walls span 1–2 map samples (docs/conventions.md).
+          EXPECT_LE(dev, 0.06);
+        }
       }
+}
+
+}  // namespace
+}  // namespace btf
+
+namespace btf {
+namespace {
+
+// Grazing probes: bounded time and the right value up to the stated limit, a clear refusal past
+// it (a wrong number is never returned).
+TEST(Grazing, ProbesStayRightUpToTheLimitAndRefuseBeyond) {
+  const Scene flat = test::sceneFromJson(
+      R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": 0.5}},
+          "parts": [{"type": "plane", "material": "m"}]})");
+  SimOptions o;
+  o.progress = false;
+  SimulationJob job(flat, o);
+  for (double t : {80.0, 89.0, 89.9, kMaxProbeThetaDeg}) {
+    SCOPED_TRACE(t);
+    const auto pairs =
+        std::vector<DirectionPair>{pairFromDegrees(t, 0, t, 180), pairFromDegrees(t, 30, 10, 100)};
+    const auto direct = averagedBrdf(job.tracer(), job.materials(), pairs, 8, 1);
+    PathSettings ps;
+    const auto pt = pathTracedBrdf(job.tracer(), job.materials(), pairs, 8, 1, ps);
+    for (size_t k = 0; k < pairs.size(); ++k) {
+      EXPECT_NEAR(direct[k].x, 0.5 / kPi, 1e-4);
+      EXPECT_NEAR(pt[k].x, 0.5 / kPi, 1e-4);
+    }
+  }
+  // Relief: the grazing limit is approached continuously (brick, path traced).
+  const Scene brick = loadScene(test::sourceDir() + "/resources/scenes/brick.json");
+  SimulationJob bj(brick, o);
+  PathSettings ps;
+  const auto near =
+      pathTracedBrdf(bj.tracer(), bj.materials(), {pairFromDegrees(89.9, 0, 89.9, 180)}, 32, 1, ps);
+  const auto limit =
+      pathTracedBrdf(bj.tracer(), bj.materials(),
+                     {pairFromDegrees(kMaxProbeThetaDeg, 0, kMaxProbeThetaDeg, 180)}, 32, 1, ps);
+  EXPECT_NEAR(limit[0].x, near[0].x, 0.05 * near[0].x);
+  for (double t : {89.995, 90.0, 95.0}) {
+    try {
+      pairFromDegrees(t, 0, 0, 0);
+      ADD_FAILURE() << t << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("θ must be in [0, 89.99] degrees"), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 }  // namespace
