@@ -34,6 +34,7 @@ Checksum64::Checksum64(uint64_t seed)
 void Checksum64::update(const void* data, size_t bytes) {
   const auto* p = static_cast<const unsigned char*>(data);
   m_total += bytes;
+  if (bytes == 0) return;
   if (m_tailBytes) {
     const size_t take = std::min(bytes, 32 - m_tailBytes);
     std::memcpy(m_tail + m_tailBytes, p, take);
@@ -45,7 +46,7 @@ void Checksum64::update(const void* data, size_t bytes) {
     m_tailBytes = 0;
   }
   for (; bytes >= 32; p += 32, bytes -= 32) lanes(m_h, p);
-  std::memcpy(m_tail, p, bytes);
+  if (bytes) std::memcpy(m_tail, p, bytes);  // (p may be null when nothing is left)
   m_tailBytes = bytes;
 }
 
