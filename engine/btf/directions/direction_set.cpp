@@ -19,6 +19,21 @@ DirectionSet DirectionSet::grid(int nTheta, int nPhi) {
   return s;
 }
 
+DirectionSet DirectionSet::axisGrid(int nTheta, int nPhi) {
+  if (nTheta < 2 || nTheta > 4096 || nPhi < 4 || nPhi > 8192 || nPhi % 4 != 0)
+    throw Error("invalid direction grid " + std::to_string(nTheta) + "x" + std::to_string(nPhi) +
+                "a: θ count 2..4096, φ count 4..8192 and a multiple of 4 (so that φ = 0°, 90°, "
+                "180° and 270° are directions)");
+  DirectionSet s;
+  s.m_name = std::to_string(nTheta) + "x" + std::to_string(nPhi) + "a";
+  // The pole, then rings at k·90°/Nθ with azimuths from φ = 0: axis-aligned geometry's ridges
+  // (φ = 0°, 90°, 180°, 270°) fall on directions instead of between them.
+  s.m_rings.push_back({0.0, 1, 0.0, 0});
+  for (int k = 1; k < nTheta; ++k) s.m_rings.push_back({k * (kPi / 2) / nTheta, nPhi, 0.0, 0});
+  s.finish(false);
+  return s;
+}
+
 DirectionSet DirectionSet::fromRings(const std::string& name,
                                      const std::vector<std::array<double, 3>>& ringsDeg) {
   DirectionSet s;
@@ -63,10 +78,15 @@ DirectionSet DirectionSet::fromName(const std::string& n) {
   std::string g = n.rfind("grid:", 0) == 0 ? n.substr(5) : n;
   int a = 0, b = 0;
   char x = 0, extra = 0;
-  if (std::sscanf(g.c_str(), "%d%c%d%c", &a, &x, &b, &extra) == 3 && (x == 'x' || x == 'X'))
-    return grid(a, b);
+  const int got = std::sscanf(g.c_str(), "%d%c%d%c", &a, &x, &b, &extra);
+  if (got == 3 && (x == 'x' || x == 'X')) return grid(a, b);
+  char extra2 = 0;
+  if (got == 4 && (x == 'x' || x == 'X') && extra == 'a' &&
+      std::sscanf(g.c_str(), "%d%c%d%c%c", &a, &x, &b, &extra, &extra2) == 4)
+    return axisGrid(a, b);
   throw Error("unknown direction set '" + n +
-              "' (expected bonn81, ubo151 or a θ×φ grid like 16x32)");
+              "' (expected bonn81, ubo151, a θ×φ grid like 16x32, or one with azimuths on the "
+              "axes like 16x32a)");
 }
 
 void DirectionSet::finish(bool gridCells) {

@@ -34,6 +34,9 @@ class DirectionSet {
   /// Regular grid: nθ rings at cell centres θ_k = (k + ½)·90°/nθ, each with nφ azimuths at
   /// φ_j = (j + ½)·360°/nφ. Cells are the θ×φ rectangles around them.
   static DirectionSet grid(int nTheta, int nPhi);
+  /// "NθxNφa": the pole plus Nθ − 1 rings at k·90°/Nθ, Nφ azimuths from φ = 0 (a multiple of 4,
+  /// so the axes φ = 0°, 90°, 180°, 270° are directions). Interpolated ring-linearly.
+  static DirectionSet axisGrid(int nTheta, int nPhi);
   static DirectionSet bonn81();
   static DirectionSet ubo151();
   /// "bonn81", "ubo151", "16x32" (θ×φ grid) or "grid:16x32". Throws btf::Error naming the text.

@@ -64,7 +64,9 @@ void append(Opts& a, const Opts& b) {
 // Scene-backed simulation options: absent from a request unless given (the scene decides).
 Opts sceneOptions() {
   return {
-      str("dirs", "", "direction set: bonn81, ubo151 or a θ×φ grid like 16x32 (scene)"),
+      str("dirs", "",
+          "direction set: bonn81, ubo151, a θ×φ grid like 16x32, or with azimuths on the axes like "
+          "16x32a (scene)"),
       str("texels", "", "texels: N or NUxNV (scene)"),
       in("spp", 1, 1, 64, "K: K×K jittered rays per texel (scene)"),
       en("shadows", "map", {"map", "rays"}, "self-shadowing: shadow map or exact rays (scene)")};

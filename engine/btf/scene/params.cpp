@@ -309,8 +309,10 @@ const TypeDecl& simulationDecl() {
       "simulation",
       "Default simulation settings of the scene; the command line overrides each.",
       {i2("texels", {32, 32}, 1, 16384, "texels Nu × Nv over the tile"),
-       en("directions", "bonn81", {"bonn81", "ubo151", "grid"}, "direction set"),
-       i2("grid", {16, 32}, 1, 1024, "θ × φ counts when directions = grid"),
+       en("directions", "bonn81", {"bonn81", "ubo151", "grid", "axis-grid"},
+          "direction set: grid is cell-centred; axis-grid has the pole and φ = 0°, 90°, 180°, "
+          "270° on every ring (φ count a multiple of 4)"),
+       i2("grid", {16, 32}, 1, 1024, "θ × φ counts when directions = grid or axis-grid"),
        in("spp", 1, 1, 64, "supersampling: K×K jittered rays per texel (1 = texel centre)"),
        en("shadows", "map", {"map", "rays"},
           "self-shadowing: shadow-map test or exact shadow rays"),

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 namespace btf {
@@ -40,6 +41,7 @@ std::string EffectPlan::toJson(bool withTimes) const {
   j["analysis"]["alpha_mean"] = alphaMean;
   j["analysis"]["glossy_albedo"] = glossyAlbedo;
   j["analysis"]["order_decay"] = energyBound;
+  j["analysis"]["dropped_tail"] = droppedTail;
   j["analysis"]["occlusion_tests"] = occlusionTests;
   j["analysis"]["occluded_tests"] = occludedTests;
   for (const auto& d : decisions) {
@@ -190,16 +192,26 @@ EffectPlan planEffects(const PeriodicTracer& tracer, const std::vector<Material>
       plan.bounces = std::max(2, req.bounces);
       d.reason = "forced by the command line";
     } else {
-      // Keep orders k = 1..K with (ρ_max·ᾱ)^k ≥ ε (at least one); P = K + 1 reflections.
+      // Keep orders k = 1..K (at least one; P = K + 1 reflections) so that the whole dropped
+      // tail, Σ_{k>K} (ρ_max·ᾱ)^k = q^{K+1} / (1 − q), is at most ε — not just the next order.
+      // A time cap (maxAutoBounces) may stop earlier: then the decision says so, with the tail.
+      auto tail = [&](int k) {
+        return q < 1 ? std::pow(q, k + 1) / (1 - q) : std::numeric_limits<double>::infinity();
+      };
       int K = 1;
-      while (K + 1 < req.maxAutoBounces && std::pow(q, K + 1) >= req.epsilon) ++K;
+      while (K + 1 < req.maxAutoBounces && tail(K) > req.epsilon) ++K;
       const int P = K + 1;
       plan.bounces = P;
-      d.reason =
-          "inter-reflection orders k ≤ " + std::to_string(K) + " have (ρ_max·ᾱ)^k ≥ ε; (" + fmt(q) +
-          ")^" + std::to_string(K + 1) + " = " + fmt(std::pow(q, K + 1)) +
-          (P == req.maxAutoBounces ? " (capped at " + std::to_string(req.maxAutoBounces) + ")"
-                                   : "");
+      plan.droppedTail = tail(K);
+      const std::string t =
+          "(" + fmt(q) + ")^" + std::to_string(K + 1) + "/(1 − " + fmt(q) + ") = " + fmt(tail(K));
+      d.reason = tail(K) <= req.epsilon
+                     ? "orders k ≤ " + std::to_string(K) + " kept: the dropped tail Σ_{k>" +
+                           std::to_string(K) + "} (ρ_max·ᾱ)^k = " + t + " ≤ ε"
+                     : "capped at P = " + std::to_string(P) +
+                           " for time (--bounces raises it): the dropped tail " + t +
+                           " exceeds ε, an estimated relative error of " + fmt(100 * tail(K)) +
+                           " %";
     }
     d.value = std::to_string(plan.bounces);
     plan.decisions.push_back(d);

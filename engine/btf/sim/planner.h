@@ -21,7 +21,8 @@ struct PlanRequest {
   Toggle selfShadowing = Toggle::Auto;
   Toggle interreflection = Toggle::Auto;
   int bounces = 0;  // P when > 0 (forces it); 0 = from the energy bound, at most maxAutoBounces
-  int maxAutoBounces = 4;
+  /// A time cap on the automatic P; reaching it is stated in the plan with the dropped tail.
+  int maxAutoBounces = 12;
   double epsilon = 0.01;         // relative energy below which an inter-reflection order is dropped
   Toggle colour = Toggle::Auto;  // On = RGB, Off = one channel
   Toggle vmf = Toggle::Auto;
@@ -47,6 +48,7 @@ struct EffectPlan {
   double glossyAlbedo = 0;      // largest directional albedo of a glossy lobe alone
   double rhoMax = 0, alphaMax = 0, alphaMean = 0;
   double energyBound = 0;  // ρ_max·ᾱ: the decay of the inter-reflection orders
+  double droppedTail = 0;  // Σ of the orders P leaves out, relative to the direct reflection
   int64_t occlusionTests = 0, occludedTests = 0;
   std::vector<EffectDecision> decisions;
   EffectDecision* find(const std::string& effect);

@@ -30,9 +30,11 @@ SimOptions optionsFromScene(const Scene& scene) {
   const ParamSet& s = scene.simulation;
   o.nu = s.i2("texels")[0];
   o.nv = s.i2("texels")[1];
-  o.directions = s.s("directions") == "grid"
-                     ? std::to_string(s.i2("grid")[0]) + "x" + std::to_string(s.i2("grid")[1])
-                     : s.s("directions");
+  const std::string counts =
+      std::to_string(s.i2("grid")[0]) + "x" + std::to_string(s.i2("grid")[1]);
+  o.directions = s.s("directions") == "grid"        ? counts
+                 : s.s("directions") == "axis-grid" ? counts + "a"
+                                                    : s.s("directions");
   o.spp = s.i("spp");
   o.shadows = parseShadowMode(s.s("shadows"));
   o.seed = uint64_t(s.i("seed"));

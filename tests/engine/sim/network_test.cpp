@@ -438,10 +438,32 @@ TEST(Planner, BounceCountFromTheEnergyBound) {
   EXPECT_LT(a.plan.bounces, o.plan.maxAutoBounces);
   const SimRun many = simulate(s, opts(16, "bonn81", 1, 8));
   EXPECT_LT(relDiff(a, many), o.plan.epsilon);
-  // An albedo-1 cavity keeps every order up to the cap.
+  EXPECT_LE(a.plan.droppedTail, o.plan.epsilon);
+  // The whole dropped tail, not the next order, decides: q^{K+1}/(1−q) ≤ ε at the chosen K and
+  // not at K − 1.
+  const double q = a.plan.energyBound;
+  const int K = a.plan.bounces - 1;
+  EXPECT_LE(std::pow(q, K + 1) / (1 - q), o.plan.epsilon);
+  if (K > 1) {
+    EXPECT_GT(std::pow(q, K) / (1 - q), o.plan.epsilon);
+  }
+  // An albedo-1 cavity needs more than the old silent cap of 4, and gets it.
   const Scene c = test::sceneFromJson(scene(lambert(1.0), kCavity));
+  const SimRun deep = simulate(c, o);
+  EXPECT_GT(deep.plan.bounces, 4);
+  EXPECT_LE(deep.plan.droppedTail, o.plan.epsilon);
+  // With a time cap below that, the plan states the cap and the error it leaves.
+  o.plan.maxAutoBounces = 4;
   const SimRun b = simulate(c, o);
-  EXPECT_EQ(b.plan.bounces, o.plan.maxAutoBounces);
+  EXPECT_EQ(b.plan.bounces, 4);
+  EXPECT_GT(b.plan.droppedTail, o.plan.epsilon);
+  bool stated = false;
+  for (const auto& d : b.plan.decisions)
+    if (d.effect == "bounces")
+      stated = d.reason.find("capped at P = " + std::to_string(o.plan.maxAutoBounces) +
+                             " for time") != std::string::npos &&
+               d.reason.find("estimated relative error") != std::string::npos;
+  EXPECT_TRUE(stated);
 }
 
 TEST(Planner, WeakGlossyLobesSkipTheIndirectGlossyGather) {
@@ -512,6 +534,56 @@ TEST(Planner, ForcedFlagsAndBadValuesAreClearErrors) {
       << out;
   EXPECT_NE(out.find("[forced]"), std::string::npos) << out;
   EXPECT_NE(out.find("interreflection"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace btf
+
+namespace btf {
+namespace {
+
+// A deep cavity the old silent cap of P = 4 cut short (issue 12): four spheres above a plane,
+// Lambert 0.8. The default plan's P follows the dropped tail, and its tile average meets the
+// unbounded path tracer closer than P = 4 does.
+TEST(Planner, DeepCavityGetsThePathLengthItsTailNeeds) {
+  const char* kFour = R"([{"type": "plane", "material": "m"},
+    {"type": "sphere", "material": "m", "center": [0.25, 0.25, 0.22], "radius": 0.21},
+    {"type": "sphere", "material": "m", "center": [0.75, 0.25, 0.22], "radius": 0.21},
+    {"type": "sphere", "material": "m", "center": [0.25, 0.75, 0.22], "radius": 0.21},
+    {"type": "sphere", "material": "m", "center": [0.75, 0.75, 0.22], "radius": 0.21}])";
+  const Scene s = test::sceneFromJson(scene(lambert(0.8), kFour));
+  SimOptions o = opts(16, "bonn81", 2, 1);
+  o.plan.interreflection = Toggle::Auto;
+  std::unique_ptr<SimulationJob> job;
+  const SimRun a = simulate(s, o, &job);
+  const SimRun four = simulate(s, opts(16, "bonn81", 2, 4));
+  std::printf("  four spheres: P = %d, ρ·ᾱ = %.3f, dropped tail %.4f\n", a.plan.bounces,
+              a.plan.energyBound, a.plan.droppedTail);
+  EXPECT_GT(a.plan.bounces, 4);
+  EXPECT_LE(a.plan.droppedTail, o.plan.epsilon);
+  // The unbounded path tracer at a few pairs of the set.
+  const DirectionSet& d = job->directions();
+  std::vector<DirectionPair> pairs;
+  std::vector<std::pair<int, int>> idx;
+  for (int v : {0, 20, 50})
+    for (int l : {0, 30, 60}) {
+      pairs.push_back({d[l].w, d[v].w});
+      idx.push_back({v, l});
+    }
+  PathSettings ps;
+  ps.maxBounces = 0;  // unbounded (Russian roulette)
+  const auto ref = pathTracedBrdf(job->tracer(), job->materials(), pairs, 96, 1, ps);
+  double errAuto = 0, errFour = 0, sum = 0;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const auto [v, l] = idx[k];
+    errAuto += std::abs(a.at(v, l).x - ref[k].x);
+    errFour += std::abs(four.at(v, l).x - ref[k].x);
+    sum += ref[k].x;
+  }
+  std::printf("  vs the unbounded path tracer: default plan %.2f %%, P = 4 %.2f %%\n",
+              100 * errAuto / sum, 100 * errFour / sum);
+  EXPECT_LT(errAuto, errFour);
+  EXPECT_LT(errAuto / sum, 0.02);
 }
 
 }  // namespace
