@@ -158,6 +158,9 @@ std::vector<CommandDecl> build() {
     CommandDecl c{"compare", "error between two BTFs (raw or compressed)", {}, {"a", "b"}, {}};
     c.options = {path("a", "reference BTF (.btf or .cbtf)"), path("b", "BTF to measure"),
                  str("maps", "", "folder for per-texel and per-direction error maps"),
+                 str("noise", "",
+                     "a second, independent simulation of A (another --seed): reports A's own "
+                     "noise floor, RMS(A − NOISE)/√2, and B's error in excess of it"),
                  in("worst", 10, 0, 1000, "how many worst texels and directions to list")};
     cs.push_back(c);
   }

@@ -102,7 +102,27 @@ void compare(const Call& c) {
   if (!r.s("maps").empty()) j["maps"] = r.s("maps");
   std::string t = format("A %s (%s, ratio 1:%.0f)\nB %s (%s, ratio 1:%.0f)\n", r.s("a").c_str(),
                          A->kind().c_str(), ratioA, r.s("b").c_str(), B->kind().c_str(), ratioB);
-  t += errorText(e) + "\nworst texels (u, v: RMSE):";
+  t += errorText(e) + "\n";
+  if (!r.s("noise").empty()) {
+    // Two independent simulations differ by √2 × the noise of one: that is A's own floor. B's
+    // error in excess of it adds in quadrature (independent errors).
+    const auto N = openBtf(r.s("noise"));
+    const ErrorReport f = compareBtfs(*A, *N, c.progress(), 0, c.ctx.cancel);
+    const double floorRmse = f.rmse / std::sqrt(2.0), floorRel = f.relRmse / std::sqrt(2.0);
+    const double excessRel = std::sqrt(std::max(0.0, e.relRmse * e.relRmse - floorRel * floorRel));
+    j["noise"] = {{"path", r.s("noise")},
+                  {"floor_rmse", floorRmse},
+                  {"floor_relative_rmse", floorRel},
+                  {"excess_relative_rmse", excessRel}};
+    t += format(
+        "noise floor of A (RMS(A − %s)/√2): RMSE %.6g, relative %.3f %%; B's error in "
+        "excess of it: relative %.3f %%%s\n",
+        r.s("noise").c_str(), floorRmse, 100 * floorRel, 100 * excessRel,
+        e.relRmse < 2 * floorRel ? " — the reference is too noisy to judge B: simulate it "
+                                   "with more samples"
+                                 : "");
+  }
+  t += "worst texels (u, v: RMSE):";
   for (const auto& w : e.worstTexels)
     t += format(" (%lld, %lld: %.4g)", (long long)(w.index % e.nu), (long long)(w.index / e.nu),
                 w.rmse);

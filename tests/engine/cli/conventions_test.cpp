@@ -118,6 +118,7 @@ TEST(CliConventions, EveryCommandTakesQuietAndJsonAndMatchesItsSchema) {
       {"info", "info " + d + "/s.cbtf"},
       {"compress", "compress " + d + "/b.btf -o " + d + "/b.cbtf --codec svd --compare"},
       {"compare", "compare " + d + "/b.btf " + d + "/b.cbtf --maps " + d + "/maps"},
+      {"compare", "compare " + d + "/b.btf " + d + "/b.cbtf --noise " + d + "/b.btf"},
       {"export", "export " + d + "/b.cbtf --format merl -o " + d + "/b.merl --phi-samples 2"},
       {"export", "export " + d + "/b.btf --format ubo2014 -o " + d + "/b.dfmf --components 2"},
       {"slice", "slice " + d + "/b.cbtf --view 0,0 --light 30,0 -o " + d + "/v.png"},

@@ -2,6 +2,7 @@
 // arena, the one outcome of a cancel at every stage (no file, no .partial), and the engine's
 // reports.
 #include <btf/compress/cbtf.h>
+#include <btf/compress/compress.h>
 #include <btf/core/progress.h>
 #include <btf/core/run_context.h>
 #include <btf/ops/ops.h>
@@ -211,6 +212,44 @@ TEST(Ops, StreamedRunOverTheBudgetIsRefusedWithTheFigures) {
   EXPECT_NE(e.find("refusing to start: "), std::string::npos) << e;
   EXPECT_NE(e.find("--memory-budget is 300.0 MiB"), std::string::npos) << e;
   EXPECT_FALSE(fs::exists(dir / "x.cbtf"));
+}
+
+}  // namespace
+}  // namespace btf
+
+namespace btf {
+namespace {
+
+// `compare --noise`: the reference's own noise floor from a second seed, and the excess.
+TEST(Ops, CompareReportsTheReferencesNoiseFloorAndTheExcess) {
+  const auto dir = test::tempDir("ops_noise");
+  const std::string a = (dir / "a.btf").string(), a2 = (dir / "a2.btf").string(),
+                    b = (dir / "b.cbtf").string();
+  RunContext ctx;
+  ctx.progress = false;
+  for (const auto& [out, seed] : {std::pair{a, "1"}, std::pair{a2, "2"}}) {
+    ops::Request s("simulate");
+    s.set("scene", scenePath("brick")).set("output", out).set("texels", "8").set("dirs", "4x8");
+    s.set("seed", seed).set("spp", "2");
+    ops::run(s, ctx);
+  }
+  ops::Request cr("compress");
+  cr.set("input", a).set("output", b).set("codec", "svd").set("components", "2");
+  ops::run(cr, ctx);
+  ops::Request cmp("compare");
+  cmp.set("a", a).set("b", b).set("noise", a2);
+  const ops::Report rep = ops::run(cmp, ctx);
+  const double rel = rep.json["relative_rmse"].get<double>();
+  const auto& n = rep.json["noise"];
+  const ErrorReport seeds = compareBtfs(*openBtf(a), *openBtf(a2), false);
+  EXPECT_GT(seeds.relRmse, 0);  // two seeds differ
+  EXPECT_NEAR(n["floor_relative_rmse"].get<double>(), seeds.relRmse / std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(n["floor_rmse"].get<double>(), seeds.rmse / std::sqrt(2.0), 1e-12);
+  const double floorRel = n["floor_relative_rmse"].get<double>();
+  const double excess = n["excess_relative_rmse"].get<double>();
+  EXPECT_NEAR(excess * excess + std::min(floorRel, rel) * std::min(floorRel, rel),
+              std::max(rel * rel, floorRel * floorRel), 1e-12);
+  EXPECT_LE(excess, rel);
 }
 
 }  // namespace
