@@ -3,6 +3,7 @@
 #include <btf/core/container.h>
 #include <btf/core/error.h>
 #include <btf/core/hash.h>
+#include <btf/core/json_limits.h>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -209,43 +210,58 @@ CompressedBtf readCompressed(const std::string& path) {
   container::checkHeader(header, pre, path);
   CompressedBtf c;
   nlohmann::json j;
+  checkJsonDepth(header, path + " (header)");
   try {
     j = nlohmann::json::parse(header);
-    if (j.at("format") != "btfstudio-compressed-btf")
-      throw Error(path + ": not a compressed BTF header");
-    if (j.at("format_version").get<int>() != kFormatVersion)
-      throw Error(path + ": unsupported compressed-BTF version " + j.at("format_version").dump());
-    c.codec = j.at("codec");
-    c.colour = j.at("colour");
-    c.paramsJson = j.at("params").dump();
-    c.statsJson = j.at("stats").dump();
-    c.info = infoFromJson(j.at("source").dump(), path);
-  } catch (const Error&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw Error(path + ": malformed compressed-BTF header (" + e.what() + ")");
+  } catch (const nlohmann::json::exception&) {
+    throw Error(path + ": malformed compressed-BTF header (not valid JSON)");
   }
+  if (!j.is_object()) throw Error(path + ": malformed compressed-BTF header (not a JSON object)");
+  const JsonFields h(j, path);
+  if (h.string("/format") != "btfstudio-compressed-btf")
+    throw Error(path + ": not a compressed BTF header");
+  if (h.integer("/format_version", 0, 1 << 30) != kFormatVersion)
+    throw Error(path + ": unsupported compressed-BTF version " + j.at("format_version").dump());
+  c.codec = h.string("/codec");
+  c.colour = h.string("/colour");
+  if (!h.at("/params").is_object()) h.fail("/params", "must be an object");
+  if (!h.at("/stats").is_object()) h.fail("/stats", "must be an object");
+  c.paramsJson = j.at("params").dump();
+  c.statsJson = j.at("stats").dump();
+  c.info = infoFromJson(h.at("/source").dump(), path);
   uint64_t end = 24 + hlen;
-  for (const auto& e : j.at("arrays")) {
+  const auto& list = h.at("/arrays");
+  if (!list.is_array()) h.fail("/arrays", "must be a list");
+  for (size_t k = 0; k < list.size(); ++k) {
+    // Every size is checked against the file before anything is allocated from it.
+    const std::string p = "/arrays/" + std::to_string(k);
     CArray a;
-    a.name = e.at("name");
-    const std::string type = e.at("type");
+    a.name = h.string(p + "/name");
+    const std::string type = h.string(p + "/type");
     if (type != "f16" && type != "f32")
       throw Error(path + ": array '" + a.name + "' has unknown type '" + type + "'");
     a.type = type == "f16" ? ArrayType::F16 : ArrayType::F32;
-    a.rows = e.at("rows");
-    a.cols = e.at("cols");
-    const uint64_t off = e.at("offset"), bytes = e.at("bytes");
-    if (a.rows < 0 || a.cols < 0 || bytes != a.storedBytes())
+    const int64_t maxCount = int64_t(size);  // no array has more elements than the file bytes
+    a.rows = h.integer(p + "/rows", 0, maxCount);
+    a.cols = h.integer(p + "/cols", 0, maxCount);
+    uint64_t elems = 0;
+    if (__builtin_mul_overflow(uint64_t(a.rows), uint64_t(a.cols), &elems) ||
+        elems > uint64_t(size))
+      throw Error(path + ": array '" + a.name + "': " + std::to_string(a.rows) + " × " +
+                  std::to_string(a.cols) + " elements cannot fit in a " + std::to_string(size) +
+                  "-byte file");
+    const uint64_t off = uint64_t(h.integer(p + "/offset", 0, maxCount));
+    const uint64_t bytes = uint64_t(h.integer(p + "/bytes", 0, maxCount));
+    if (bytes != a.storedBytes())
       throw Error(path + ": array '" + a.name + "' has inconsistent dimensions");
-    if (off + bytes > size)
+    if (bytes > size || off > size - bytes)
       throw Error(path + ": truncated file (array '" + a.name + "' ends at byte " +
                   std::to_string(off + bytes) + ", the file has " + std::to_string(size) + ")");
     std::vector<uint8_t> raw(bytes);
     f.seekg(std::streamoff(off));
     f.read(reinterpret_cast<char*>(raw.data()), std::streamsize(bytes));
     if (!f) throw Error(path + ": read error in array '" + a.name + "'");
-    if (hex64(checksum64(raw.data(), raw.size())) != e.at("checksum").get<std::string>())
+    if (hex64(checksum64(raw.data(), raw.size())) != h.string(p + "/checksum"))
       throw Error(path + ": checksum mismatch in array '" + a.name + "' (corrupt file)");
     a.data.resize(size_t(a.rows * a.cols));
     for (size_t i = 0; i < a.data.size(); ++i) {

@@ -22,7 +22,10 @@ struct CArray {
   float at(int64_t r, int64_t c) const { return data[size_t(r * cols + c)]; }
   float* row(int64_t r) { return data.data() + r * cols; }
   const float* row(int64_t r) const { return data.data() + r * cols; }
-  uint64_t storedBytes() const { return uint64_t(rows * cols) * (type == ArrayType::F16 ? 2 : 4); }
+  /// Callers bound rows × cols first (the reader checks it against the file size).
+  uint64_t storedBytes() const {
+    return uint64_t(rows) * uint64_t(cols) * (type == ArrayType::F16 ? 2u : 4u);
+  }
 };
 
 struct CompressedBtf {

@@ -8,6 +8,7 @@
 #include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 #include <filesystem>
+#include <iostream>
 #include <mutex>
 #include <sstream>
 
@@ -33,6 +34,7 @@ PolyMesh readPoly(const std::string& path) {
   static std::ostringstream* capture = [] {
     auto* s = new std::ostringstream;
     omerr().connect(*s);
+    omerr().disconnect(std::cerr);  // its complaints become our one-line errors, not stderr text
     omlog().disable();
     return s;
   }();
@@ -84,6 +86,9 @@ TriMesh loadMeshFile(const std::string& path, bool smooth) {
   TriMesh m;
   for (auto v : pm.vertices()) {
     const auto p = pm.point(v);
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      throw Error(path + ": vertex " + std::to_string(v.idx()) +
+                  " has a non-finite coordinate (inf or nan)");
     m.pos.push_back(Vec3(p[0], p[1], p[2]));
   }
   for (auto f : pm.faces()) {

@@ -22,7 +22,19 @@ TileGeometry buildTileGeometry(const Scene& scene) {
     }
     applyTransform(m, part.transform);
     if (m.tri.empty()) throw Error(where + ": produces no triangles");
+    for (const auto& p : m.pos)
+      if (!finite3(p)) throw Error(where + ": has a non-finite vertex (after its transform)");
     const auto cnt = part.array.i2("count");
+    // Bounded before any copy is made: the tracer, the hit maps and the network all scale with
+    // the triangle count (about 200 bytes a triangle with the periodic copies in the BVH).
+    const uint64_t copies = uint64_t(cnt[0]) * uint64_t(cnt[1]);
+    const uint64_t total = uint64_t(g.mesh.tri.size()) + copies * uint64_t(m.tri.size());
+    if (total > kMaxTileTriangles)
+      throw Error(where + ": " + std::to_string(copies) + " cop" + (copies == 1 ? "y" : "ies") +
+                  " of " + std::to_string(m.tri.size()) + " triangles make the tile " +
+                  std::to_string(total) + " triangles, above the limit of " +
+                  std::to_string(kMaxTileTriangles) +
+                  " (lower the array count or the part's resolution)");
     Vec2 sp = part.array.v2("spacing");
     if (sp.x == 0) sp.x = float(scene.Lx / cnt[0]);
     if (sp.y == 0) sp.y = float(scene.Ly / cnt[1]);

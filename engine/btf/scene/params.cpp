@@ -332,7 +332,9 @@ const TypeDecl& tileDecl() {
   static const TypeDecl d{"tile",
                           "tile",
                           "The periodic tile of the reference plane z = 0.",
-                          {v2("size", {1, 1}, 0, kInf, "periods Lx, Ly", true)}};
+                          {v2("size", {1, 1}, 1e-3, 1e3,
+                              "periods Lx, Ly (1e-3..1e3: the tracer's offsets and float "
+                              "positions are sized for it)")}};
   return d;
 }
 

@@ -1,4 +1,5 @@
 #include <btf/core/error.h>
+#include <btf/core/json_limits.h>
 #include <btf/scene/scene.h>
 
 #include <cmath>
@@ -165,6 +166,7 @@ Scene parseScene(const std::string& text, const std::string& source,
                  const std::filesystem::path& baseDir) {
   Ctx c{source};
   json root;
+  checkJsonDepth(text, source);
   try {
     root = json::parse(text);
   } catch (const json::parse_error& e) {

@@ -1,6 +1,7 @@
 #include <btf/core/container.h>
 #include <btf/core/error.h>
 #include <btf/core/hash.h>
+#include <btf/core/json_limits.h>
 #include <btf/store/btf_store.h>
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -11,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 namespace btf {
@@ -63,35 +65,44 @@ std::string infoToJson(const BtfInfo& i) {
 }
 
 BtfInfo infoFromJson(const std::string& text, const std::string& file) {
-  BtfInfo i;
+  checkJsonDepth(text, file + " (header)");
+  nlohmann::json j;
   try {
-    auto j = nlohmann::json::parse(text);
-    if (j.at("format") != "btfstudio-raw-btf") throw Error(file + ": not a raw BTF header");
-    if (j.at("format_version").get<int>() != kFormatVersion)
-      throw Error(file + ": unsupported store version " + j.at("format_version").dump());
-    i.nu = j.at("texels")[0];
-    i.nv = j.at("texels")[1];
-    i.Lx = j.at("tile_size")[0];
-    i.Ly = j.at("tile_size")[1];
-    i.directionSet = j.at("directions").at("set");
-    i.dirsDeg = j.at("directions").at("theta_phi_deg").get<std::vector<std::array<double, 2>>>();
-    i.chunkTexels = j.at("chunk_texels");
-    i.spp = j.at("settings").at("spp");
-    i.shadows = j.at("settings").at("shadows");
-    i.shadowBias = j.at("settings").at("shadow_bias");
-    i.seed = j.at("settings").at("seed");
-    i.hasVmf = j.at("settings").value("vmf", true);
-    i.sceneName = j.at("scene").at("name");
-    i.sceneHash = j.at("scene").at("hash");
-    i.sceneJson = j.at("scene").at("json");
-    i.plan = j.at("plan");
-  } catch (const Error&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw Error(file + ": malformed BTF header (" + e.what() + ")");
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception&) {
+    throw Error(file + ": malformed BTF header (not valid JSON)");
   }
-  if (i.nu < 1 || i.nv < 1 || i.dirsDeg.empty() || i.chunkTexels < 1)
-    throw Error(file + ": malformed BTF header (empty dimensions)");
+  if (!j.is_object()) throw Error(file + ": malformed BTF header (not a JSON object)");
+  const JsonFields h(j, file);
+  if (h.string("/format") != "btfstudio-raw-btf") throw Error(file + ": not a raw BTF header");
+  if (h.integer("/format_version", 0, 1 << 30) != kFormatVersion)
+    throw Error(file + ": unsupported store version " + j.at("format_version").dump());
+  BtfInfo i;
+  // Bounds: texels as --texels allows; directions up to a 256×256 grid (65 536 directions);
+  // everything sized from them is then checked against the file's actual size by the reader.
+  i.nu = int(h.integer("/texels/0", 1, 16384));
+  i.nv = int(h.integer("/texels/1", 1, 16384));
+  i.Lx = h.number("/tile_size/0");
+  i.Ly = h.number("/tile_size/1");
+  if (!(i.Lx > 0) || !(i.Ly > 0)) h.fail("/tile_size", "periods must be positive");
+  i.directionSet = h.string("/directions/set");
+  const auto& dirs = h.at("/directions/theta_phi_deg");
+  if (!dirs.is_array() || dirs.empty() || dirs.size() > 65536)
+    h.fail("/directions/theta_phi_deg", "must be a list of 1..65536 (θ, φ) pairs");
+  for (size_t k = 0; k < dirs.size(); ++k) {
+    const std::string p = "/directions/theta_phi_deg/" + std::to_string(k);
+    i.dirsDeg.push_back({h.number(p + "/0"), h.number(p + "/1")});
+  }
+  i.chunkTexels = int(h.integer("/chunk_texels", 1, 1 << 30));  // may exceed the texels
+  i.spp = int(h.integer("/settings/spp", 1, 64));
+  i.shadows = h.string("/settings/shadows");
+  i.shadowBias = h.number("/settings/shadow_bias");
+  i.seed = uint64_t(h.integer("/settings/seed", 0, std::numeric_limits<int64_t>::max()));
+  i.hasVmf = h.boolean("/settings/vmf", true);
+  i.sceneName = h.string("/scene/name");
+  i.sceneHash = h.string("/scene/hash");
+  i.sceneJson = h.string("/scene/json");
+  i.plan = h.string("/plan");
   return i;
 }
 
