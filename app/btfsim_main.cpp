@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
       CLI::Option* o = nullptr;
       if (d.type == btf::ParamType::Bool)
         o = sub->add_flag(names, b.flags[d.name], h);
-      else if (d.name == "pair")
+      else if (d.repeatable)
         o = sub->add_option(names, b.lists[d.name], h + " (repeatable)");
       else
         o = sub->add_option(names, b.values[d.name], h);
@@ -155,7 +155,7 @@ int main(int argc, char** argv) {
           if (sub->count(opt) == 0) continue;
           if (d.type == btf::ParamType::Bool) {
             req.setFlag(d.name, b.flags.at(d.name));
-          } else if (d.name == "pair") {
+          } else if (d.repeatable) {
             std::string joined;
             for (const auto& p : b.lists.at(d.name)) joined += (joined.empty() ? "" : ";") + p;
             req.set(d.name, joined);

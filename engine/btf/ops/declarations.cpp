@@ -51,6 +51,10 @@ ParamDecl en(const std::string& n, const std::string& def, std::vector<std::stri
   return d;
 }
 
+ParamDecl repeatable(ParamDecl d) {
+  d.repeatable = true;
+  return d;
+}
 ParamDecl excl(ParamDecl d) {
   d.minExclusive = true;
   return d;
@@ -233,7 +237,7 @@ std::vector<CommandDecl> build() {
     CommandDecl c{
         "brdf", "texel-averaged aBRDF at direction pairs, without a BTF", {}, {"scene"}, {}};
     c.options = {path("scene", "scene file"),
-                 str("pair", "", "θi,φi,θo,φo in degrees; several separated by ';'"),
+                 repeatable(str("pair", "", "θi,φi,θo,φo in degrees; several separated by ';'")),
                  str("pairs", "", "CSV file of θi,φi,θo,φo lines"),
                  in("spp", 64, 1, 4096, "samples per axis over the tile (N×N rays per pair)"),
                  en("method", "pt", {"pt", "direct"}, "pt (path traced, every effect) or direct"),

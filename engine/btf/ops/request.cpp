@@ -142,12 +142,7 @@ void Request::unset(const std::string& key) {
   const ParamDecl* d = m_decl->find(key);
   if (!d) return;
   if (m_decl->sceneKeys.count(key)) {
-    m_values = [&] {
-      ParamSet p;
-      for (const auto& [k, val] : m_values.values())
-        if (k != key) p.set(k, val);
-      return p;
-    }();
+    m_values.erase(key);  // the scene's value again
     return;
   }
   ParamValue v;

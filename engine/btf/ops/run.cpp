@@ -167,9 +167,7 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
   rep.command = r.command();
   const detail::Call c{r, ctx, notes, rep, scene};
   // What this run may leave behind when it is cancelled: its output (and the .partial).
-  std::string out;
-  for (const char* k : {"output"})
-    if (r.has(k)) out = r.s(k);
+  const std::string out = r.has("output") ? r.s("output") : std::string();
   const bool outExisted = !out.empty() && fs::exists(out);
   // Outputs are checked and locked before any work: one writer per output.
   const bool folderOut =

@@ -28,6 +28,7 @@ struct ParamDecl {
   bool required = false;
   std::vector<std::string> choices;  // for Enum
   std::string doc;
+  bool repeatable = false;  // a command option given several times (values joined by ';')
 };
 
 struct TypeDecl {
@@ -56,6 +57,7 @@ class ParamSet {
   const std::string& s(const std::string& k) const { return at(k).str; }
   const ParamValue& at(const std::string& k) const;
   void set(const std::string& k, ParamValue v) { m_values[k] = std::move(v); }
+  void erase(const std::string& k) { m_values.erase(k); }
   bool has(const std::string& k) const { return m_values.count(k) != 0; }
   const std::map<std::string, ParamValue>& values() const { return m_values; }
   bool operator==(const ParamSet&) const = default;
