@@ -72,10 +72,15 @@ Opts sceneOptions() {
           "direction set: bonn81, ubo151, a θ×φ grid like 16x32, or with azimuths on the axes like "
           "16x32a (scene)"),
       str("texels", "", "texels: N or NUxNV (scene)"),
-      in("spp", 1, 1, 64, "K: K×K jittered rays per texel (scene)"),
+      en("sampling", "adaptive", {"adaptive", "uniform"},
+         "adaptive: 2×2 samples per texel refined up to --max-spp where they disagree; uniform: "
+         "K×K (--spp; giving --spp alone selects it) (scene)"),
+      in("max_spp", 8, 2, 64, "adaptive: finest level, K×K samples per texel (power of two) (scene)"),
+      in("spp", 1, 1, 64, "uniform: K×K jittered rays per texel (scene)"),
       en("shadows", "map", {"map", "rays"}, "self-shadowing: shadow map or exact rays (scene)")};
 }
-const std::set<std::string> kSceneKeys = {"dirs", "texels", "spp", "shadows", "seed", "method"};
+const std::set<std::string> kSceneKeys = {"dirs",    "texels", "spp",     "shadows",
+                                          "sampling", "max_spp", "seed", "method"};
 
 Opts effectOptions() {
   return {
@@ -85,6 +90,9 @@ Opts effectOptions() {
       en("interreflection", "auto", {"auto", "on", "off"}, "inter-reflection: planner or forced"),
       in("bounces", 0, 0, 64, "P: reflections per path (1 = direct only; 0 = from the plan)"),
       fl("epsilon", 0.01, 1e-6, 0.5, "planner: energy fraction below which an order is dropped"),
+      excl(fl("tolerance", 0.01, 0, 1,
+              "adaptive sampling: a value refines while its estimated error exceeds this "
+              "fraction of max(value, floor)")),
       en("glossy_indirect", "auto", {"auto", "on", "off"},
          "glossy lobes reflect the indirect light at the texels"),
       en("colour", "auto", {"auto", "on", "off"}, "RGB (on) or one channel for grey scenes (off)"),
@@ -199,7 +207,10 @@ std::vector<CommandDecl> build() {
     c.options = {path("scene", "scene file"),
                  str("texels", "64", "texels"),
                  str("dirs", "16x32", "direction set"),
-                 in("spp", 1, 1, 64, "K"),
+                 in("spp", 1, 1, 64, "uniform: K (giving it alone selects uniform sampling)"),
+                 en("sampling", "adaptive", {"adaptive", "uniform"},
+                    "adaptive (refined where samples disagree) or uniform K×K"),
+                 in("max_spp", 8, 2, 64, "adaptive: finest level, K×K samples per texel"),
                  str("shadows", "map,rays", "comma-separated shadow modes to measure"),
                  in("repeat", 3, 1, 1000, "runs per mode (the median is reported)")};
     append(c.options, effectOptions());

@@ -94,6 +94,13 @@ SimOptions simOptions(const Scene& scene, const Request& r) {
   if (r.has("texels") && !r.s("texels").empty()) parseTexels(r.s("texels"), &o.nu, &o.nv);
   if (r.has("dirs") && !r.s("dirs").empty()) o.directions = r.s("dirs");
   if (r.has("spp")) o.spp = r.i("spp");
+  // --sampling decides; else --spp K alone asks for uniform K×K, the reference mode.
+  if (r.given("sampling"))
+    o.adaptive = r.s("sampling") == "adaptive";
+  else if (r.given("spp"))
+    o.adaptive = false;
+  if (r.given("max_spp")) o.adaptiveSettings.maxK = r.i("max_spp");
+  if (r.has("tolerance")) o.adaptiveSettings.tolerance = float(r.f("tolerance"));
   if (r.has("shadows") && r.s("shadows").find(',') == std::string::npos)
     o.shadows = parseShadowMode(r.s("shadows"));
   if (r.has("seed")) o.seed = uint64_t(r.i("seed"));

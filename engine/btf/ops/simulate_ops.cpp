@@ -35,6 +35,21 @@ std::string planText(const EffectPlan& p) {
   return s;
 }
 
+// "adaptive 2x2..8x8" or "uniform 4x4".
+std::string samplingName(const SimulationJob& job) {
+  const SimOptions& o = job.options();
+  return job.adaptive() ? format("adaptive 2x2..%dx%d", o.adaptiveSettings.maxK,
+                                 o.adaptiveSettings.maxK)
+                        : format("uniform %dx%d", o.spp, o.spp);
+}
+
+// The samples the texels took and the run's own error estimate (adaptive runs).
+std::string samplingText(const SimReport& sr) {
+  if (!sr.adaptive) return "";
+  return format("  samples per value: mean %.1f (%s); estimated per-value error %.2f %%\n",
+                sr.meanSamples, sr.samplingText.c_str(), 100.0 * sr.estimatedError);
+}
+
 std::string estimateText(const SimEstimate& e, const SimOptions& o, bool streamed) {
   std::string disk =
       streamed ? "disk: no raw file"
@@ -84,6 +99,7 @@ void simulate(const Call& c) {
   j["directions"] = job.directions().name();
   j["direction_count"] = job.directions().size();
   j["spp"] = o.spp;
+  j["sampling"] = samplingName(job);
   j["shadows"] = shadowModeName(o.shadows);
   j["method"] = o.method;
   j["plan"] = planJson(job.plan());
@@ -129,6 +145,7 @@ void simulate(const Call& c) {
     j["codec"] = json::parse(b.paramsJson);
     j["stats"] = json::parse(b.statsJson);
     j["wall_seconds"] = wall;
+    if (sr.adaptive) j["samples"] = json::parse(sr.samplingJson);
     j["simulate_seconds"] = sr.wallSeconds - encodeSeconds;
     j["encode_seconds"] = encodeSeconds;
     j["finish_seconds"] = finishSeconds;
@@ -143,7 +160,7 @@ void simulate(const Call& c) {
             output.c_str(), o.nu, o.nv, job.directions().size(), job.directions().name().c_str(),
             formatSeconds(wall).c_str(), formatSeconds(sr.wallSeconds - encodeSeconds).c_str(),
             formatSeconds(encodeSeconds).c_str(), formatSeconds(finishSeconds).c_str()) +
-        compressedText(b, wall, rss);
+        samplingText(sr) + compressedText(b, wall, rss);
     c.rep.summary = format("wrote %s, ratio 1:%.0f in %s", output.c_str(), b.ratio(),
                            formatSeconds(wall).c_str());
     return;
@@ -171,12 +188,15 @@ void simulate(const Call& c) {
   j["output_bytes"] = sr.outputBytes;
   j["chunks"] = sr.chunks;
   j["chunks_resumed"] = sr.chunksResumed;
+  if (sr.adaptive) j["samples"] = json::parse(sr.samplingJson);
   const EffectPlan& pl = job.plan();
   std::string t =
       format("wrote %s (%s)\n", output.c_str(), formatBytes(double(sr.outputBytes)).c_str());
-  t += format("  %d x %d texels, %d directions (%s), spp %d, shadows %s, %d thread(s)\n", o.nu,
-              o.nv, job.directions().size(), job.directions().name().c_str(), o.spp,
+  t += format("  %d x %d texels, %d directions (%s), sampling %s, shadows %s, %d thread(s)\n",
+              o.nu, o.nv, job.directions().size(), job.directions().name().c_str(),
+              samplingName(job).c_str(),
               o.method == "pt" ? "exact (path traced)" : shadowModeName(o.shadows), est.threads);
+  t += samplingText(sr);
   t += format("  wall %s: hit maps %s (%.2f M rays/s), aBRDF %s (%.2f M values/s), write %s\n",
               formatSeconds(sr.wallSeconds).c_str(), formatSeconds(sr.hitMapSeconds).c_str(),
               rayRate / 1e6, formatSeconds(sr.evalSeconds).c_str(), evalRate / 1e6,
@@ -267,6 +287,7 @@ void bench(const Call& c) {
     job.setCancel(c.ctx.cancel);
     const SimEstimate est = job.estimate("");
     std::vector<double> wall, hit, eval, rays, rates, rss;
+    SimReport last;
     const int repeat = c.r.i("repeat");
     for (int k = 0; k < repeat; ++k) {
       const SimReport sr = job.run("", est, c.ctx.cancel);
@@ -276,6 +297,7 @@ void bench(const Call& c) {
       rays.push_back(double(sr.hitMapRays) / std::max(1e-9, sr.hitMapSeconds));
       rates.push_back(double(sr.abrdfValues) / std::max(1e-9, sr.evalSeconds));
       rss.push_back(double(sr.peakRssBytes));
+      last = sr;
       c.notice(
           format("bench %s run %d/%d: %.2f s (hit maps %.2f s, aBRDF %.2f s, %.1f M "
                  "values/s; P = %d)",
@@ -296,6 +318,8 @@ void bench(const Call& c) {
     j["directions"] = job.directions().name();
     j["pairs"] = int64_t(job.directions().size()) * job.directions().size();
     j["spp"] = o.spp;
+    j["sampling"] = samplingName(job);
+    if (last.adaptive) j["samples"] = json::parse(last.samplingJson);
     j["threads"] = est.threads;
     j["runs"] = repeat;
     j["median_wall_seconds"] = median(wall);
@@ -308,11 +332,12 @@ void bench(const Call& c) {
     j["memory_budget_bytes"] = o.memoryBudget;
     results.push_back(j);
     t += format(
-        "%-5s %dx%d texels x %s^2, spp %d, %d thread(s): median wall %.2f s = hit maps "
+        "%-5s %dx%d texels x %s^2, %s, %d thread(s): median wall %.2f s = hit maps "
         "%.2f s (%.2f M rays/s) + aBRDF %.2f s (%.1f M values/s); peak RSS %s\n",
-        mode.c_str(), o.nu, o.nv, job.directions().name().c_str(), o.spp, est.threads, median(wall),
-        median(hit), median(rays) / 1e6, median(eval), median(rates) / 1e6,
-        formatBytes(peak).c_str());
+        mode.c_str(), o.nu, o.nv, job.directions().name().c_str(), samplingName(job).c_str(),
+        est.threads, median(wall), median(hit), median(rays) / 1e6, median(eval),
+        median(rates) / 1e6, formatBytes(peak).c_str());
+    t += samplingText(last);
   }
   c.rep.json["scene"] = scene.name;
   c.rep.json["results"] = results;

@@ -313,7 +313,13 @@ const TypeDecl& simulationDecl() {
           "direction set: grid is cell-centred; axis-grid has the pole and φ = 0°, 90°, 180°, "
           "270° on every ring (φ count a multiple of 4)"),
        i2("grid", {16, 32}, 1, 1024, "θ × φ counts when directions = grid or axis-grid"),
-       in("spp", 1, 1, 64, "supersampling: K×K jittered rays per texel (1 = texel centre)"),
+       en("sampling", "adaptive", {"adaptive", "uniform"},
+          "adaptive: each texel's footprint integrated with 2×2 samples, refined up to max_spp × "
+          "max_spp where they disagree (edges, shadow boundaries); uniform: spp × spp everywhere "
+          "(the reference mode)"),
+       in("max_spp", 8, 2, 64, "adaptive: finest level, K×K samples per texel (a power of two)"),
+       in("spp", 1, 1, 64,
+          "uniform: K×K jittered rays per texel (1 = texel centre); ignored when adaptive"),
        en("shadows", "map", {"map", "rays"},
           "self-shadowing: shadow-map test or exact shadow rays"),
        in("seed", 1, 0, 1 << 30, "seed of the jitter"),

@@ -151,6 +151,38 @@ int64_t DirectIllumination::evalTexelView(int i, int j, int view, float* out) co
   return evals;
 }
 
+bool DirectIllumination::surface(const DVec3& planePoint, const DVec3& wv, uint32_t prim,
+                                 float bu, float bv, float depth, Surface* s) const {
+  if (prim == kNoHit) return false;
+  s->p = Vec3(planePoint + double(depth) * wv);
+  if (!hitNormals(m_geom, prim, bu, bv, Vec3(wv), &s->ng, &s->n)) return false;
+  s->frame = Frame::fromNormal(s->n);
+  s->wo = s->frame.toLocal(Vec3(wv));
+  s->material = m_geom.triMaterial[prim];
+  s->mat = &m_materials[s->material];
+  s->lambert = s->mat->type == BrdfType::Lambert;
+  s->origin = DVec3(s->p) + m_tracer.epsilon() * DVec3(s->ng);
+  s->prim = prim;
+  return true;
+}
+
+Rgb DirectIllumination::contribution(const Surface& s, int l, bool exactShadow) const {
+  const LightInfo& L = m_lights[size_t(l)];
+  const float cosN = glm::dot(s.n, L.w);
+  if (cosN <= 0 || glm::dot(s.ng, L.w) <= 0) return Rgb(0);
+  float vis;
+  if (m_settings.shadows == ShadowMode::Map && !L.rays && !exactShadow) {
+    vis = shadowMapVisibility(l, s.p, s.ng, s.prim);
+  } else if (m_settings.shadows != ShadowMode::None) {
+    vis = m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f;
+  } else {
+    vis = 1.0f;
+  }
+  if (vis <= 0) return Rgb(0);
+  const Rgb f = s.lambert ? s.mat->kdOverPi : evalBrdf(*s.mat, s.frame.toLocal(L.w), s.wo);
+  return f * (cosN * L.invCos * vis);
+}
+
 Rgb DirectIllumination::evalTexelViewLight(int i, int j, int view, const DVec3& light) const {
   const SampleGrid& g = m_maps.grid();
   const int K2 = g.spp * g.spp;

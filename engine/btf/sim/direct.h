@@ -42,6 +42,25 @@ class DirectIllumination {
   float lightVisibility(int l, const Vec3& p, const Vec3& ng, uint32_t prim) const;
   const DirectSettings& settings() const { return m_settings; }
 
+  /// A shaded point of the surface: the hit of a camera ray, ready to be lit by any light.
+  struct Surface {
+    Vec3 p, ng, n, wo;  // hit point, geometric and shading normals, view in the local frame
+    Frame frame;
+    DVec3 origin;  // p offset along ng: shadow rays start here
+    const Material* mat = nullptr;
+    uint32_t prim = kNoHit;
+    uint32_t material = 0;
+    bool lambert = false;
+  };
+  /// The surface seen by the camera ray of plane point `planePoint` for view `wv` whose hit is
+  /// (prim, bu, bv) at signed distance `depth` along ωv. False when the ray misses or the
+  /// triangle is degenerate (the sample then contributes nothing).
+  bool surface(const DVec3& planePoint, const DVec3& wv, uint32_t prim, float bu, float bv,
+               float depth, Surface* s) const;
+  /// The aBRDF contribution of one surface sample for light l of the set: f · (n·ωi) · V / cos θi
+  /// (zero when the light is below the surface). `exactShadow`: a shadow ray even in map mode.
+  Rgb contribution(const Surface& s, int l, bool exactShadow = false) const;
+
   /// Shadow-map visibility in [0, 1] of point p (on triangle `prim`, geometric normal ng) for
   /// light `l` of the set.
   float shadowMapVisibility(int l, const Vec3& p, const Vec3& ng, uint32_t prim) const;

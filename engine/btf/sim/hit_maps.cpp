@@ -2,6 +2,7 @@
 #include <btf/core/rng.h>
 #include <btf/sim/hit_maps.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace btf {
@@ -59,6 +60,70 @@ void HitMaps::build(const PeriodicTracer& tracer, const DirectionSet& dirs, cons
         }
       },
       cancel);
+}
+
+void HitMaps::buildEdgeTables(const TileGeometry& geom, const CancelToken* cancel) {
+  const int su = m_grid.su(), sv = m_grid.sv();
+  const size_t stride = size_t(su + 1) * size_t(sv + 1);
+  m_edgeSat.assign(size_t(m_nDirs) * stride, 0u);
+  const float step = 3.0f * float(std::max(m_grid.Lx / su, m_grid.Ly / sv));
+  parallelForChunks(
+      m_nDirs, 1,
+      [&](int64_t b, int64_t e) {
+        std::vector<uint8_t> mask(size_t(su) * sv);
+        for (int64_t d = b; d < e; ++d) {
+          std::fill(mask.begin(), mask.end(), uint8_t(0));
+          const size_t base = idx(int(d), 0);
+          auto key = [&](int a, int r) { return base + size_t(r) * su + size_t(a); };
+          auto differ = [&](size_t x, size_t y) {
+            const uint32_t px = m_prim[x], py = m_prim[y];
+            if ((px == kNoHit) != (py == kNoHit)) return true;
+            if (px == kNoHit) return false;
+            return geom.triMaterial[px] != geom.triMaterial[py] ||
+                   std::abs(m_depth[x] - m_depth[y]) > step;
+          };
+          for (int r = 0; r < sv; ++r)
+            for (int a = 0; a < su; ++a) {
+              const size_t k = key(a, r);
+              const int an = a + 1 == su ? 0 : a + 1, rn = r + 1 == sv ? 0 : r + 1;
+              if (differ(k, key(an, r))) mask[size_t(r) * su + a] = mask[size_t(r) * su + an] = 1;
+              if (differ(k, key(a, rn))) mask[size_t(r) * su + a] = mask[size_t(rn) * su + a] = 1;
+            }
+          uint32_t* sat = &m_edgeSat[size_t(d) * stride];
+          for (int r = 0; r < sv; ++r) {
+            uint32_t row = 0;
+            for (int a = 0; a < su; ++a) {
+              row += mask[size_t(r) * su + a];
+              sat[size_t(r + 1) * (su + 1) + a + 1] = sat[size_t(r) * (su + 1) + a + 1] + row;
+            }
+          }
+        }
+      },
+      cancel);
+}
+
+uint32_t HitMaps::satRect(int dir, int a0, int a1, int b0, int b1) const {
+  const int su = m_grid.su(), sv = m_grid.sv();
+  const uint32_t* sat = &m_edgeSat[size_t(dir) * size_t(su + 1) * size_t(sv + 1)];
+  auto at = [&](int a, int b) { return sat[size_t(b) * (su + 1) + a]; };
+  return at(a1, b1) - at(a0, b1) - at(a1, b0) + at(a0, b0);
+}
+
+uint32_t HitMaps::edgeCount(int dir, int a0, int a1, int b0, int b1) const {
+  const int su = m_grid.su(), sv = m_grid.sv();
+  if (a1 - a0 >= su) a0 = 0, a1 = su;
+  if (b1 - b0 >= sv) b0 = 0, b1 = sv;
+  // Shift into [0, size) then split where the span wraps.
+  auto wrap = [](int v, int n) { return ((v % n) + n) % n; };
+  const int sa = a0 - wrap(a0, su), sb = b0 - wrap(b0, sv);
+  a0 -= sa, a1 -= sa, b0 -= sb, b1 -= sb;
+  int as[2][2] = {{a0, std::min(a1, su)}, {0, std::max(0, a1 - su)}};
+  int bs[2][2] = {{b0, std::min(b1, sv)}, {0, std::max(0, b1 - sv)}};
+  uint32_t n = 0;
+  for (auto& x : as)
+    for (auto& y : bs)
+      if (x[1] > x[0] && y[1] > y[0]) n += satRect(dir, x[0], x[1], y[0], y[1]);
+  return n;
 }
 
 std::vector<float> HitMaps::vmf(int dir) const {

@@ -55,6 +55,17 @@ class HitMaps {
   /// along ω (0 when none hit). Two floats per texel, row-major.
   std::vector<float> vmf(int dir) const;
 
+  /// Edge tables (adaptive sampling): per direction, a summed-area table of the map samples that
+  /// sit on a discontinuity of the map — a hit next to a miss, two materials, or a depth step of
+  /// more than three sample spacings (a silhouette seen from ω; for a light, where its shadows
+  /// begin). 4 bytes per (direction, sample).
+  void buildEdgeTables(const TileGeometry& geom, const CancelToken* cancel = nullptr);
+  bool hasEdgeTables() const { return !m_edgeSat.empty(); }
+  /// Edge samples of direction `dir` in the sample rectangle [a0, a1) × [b0, b1), wrapped
+  /// periodically (any integers; a span wider than the map counts the whole map).
+  uint32_t edgeCount(int dir, int a0, int a1, int b0, int b1) const;
+  static constexpr uint64_t kEdgeBytesPerSample = 4;
+
  private:
   size_t idx(int dir, int64_t s) const {
     return size_t(dir) * size_t(m_grid.samples()) + size_t(s);
@@ -63,6 +74,8 @@ class HitMaps {
   int m_nDirs = 0;
   std::vector<uint32_t> m_prim;
   std::vector<float> m_depth, m_u, m_v;
+  std::vector<uint32_t> m_edgeSat;  // per direction (su + 1) × (sv + 1)
+  uint32_t satRect(int dir, int a0, int a1, int b0, int b1) const;  // inside the map
 };
 
 /// The ray of a texel sample for direction ω: returns the hit and writes the signed distance of

@@ -36,6 +36,8 @@ SimOptions optionsFromScene(const Scene& scene) {
                  : s.s("directions") == "axis-grid" ? counts + "a"
                                                     : s.s("directions");
   o.spp = s.i("spp");
+  o.adaptive = s.s("sampling") == "adaptive";
+  o.adaptiveSettings.maxK = s.i("max_spp");
   o.shadows = parseShadowMode(s.s("shadows"));
   o.seed = uint64_t(s.i("seed"));
   o.method = s.s("method");
@@ -70,6 +72,22 @@ SimulationJob::SimulationJob(const Scene& scene, SimOptions options)
   m_geom = buildTileGeometry(m_scene);
   m_tracer = std::make_unique<PeriodicTracer>(m_geom);
   m_materials = compileMaterials(m_scene);
+  m_adaptive = m_opt.adaptive && m_opt.method != "pt";
+  m_mapSpp = m_opt.spp;
+  if (m_adaptive) {
+    const int maxK = m_opt.adaptiveSettings.maxK;
+    if (adaptiveLevel(maxK) < 0)
+      throw Error("invalid --max-spp " + std::to_string(maxK) +
+                  ": must be a power of two in 2..64");
+    if (!(m_opt.adaptiveSettings.tolerance > 0) || !(m_opt.adaptiveSettings.tolerance <= 1))
+      throw Error("invalid --tolerance: must be in (0, 1]");
+    // 4×4 map samples per texel: level 1 of the refinement costs no ray and the shadow maps are
+    // twice as fine; 2×2 when the maps would take more than half the memory budget.
+    m_mapSpp = std::min(4, maxK);
+    const uint64_t mapBytes = uint64_t(m_dirs.size()) * uint64_t(m_opt.nu) * uint64_t(m_opt.nv) *
+                              16u * (HitMaps::kBytesPerSample + HitMaps::kEdgeBytesPerSample);
+    if (m_mapSpp == 4 && mapBytes > m_opt.memoryBudget / 2) m_mapSpp = 2;
+  }
 }
 
 SimulationJob::~SimulationJob() = default;
@@ -111,6 +129,16 @@ const EffectPlan& SimulationJob::plan() const {
                     grazing, m_dirs.size(), m_opt.grazingRays);
       m_plan->decisions.push_back({"grazing_rays", value, reason, m_opt.grazingRaysForced, 0});
     }
+    if (m_adaptive) {
+      char value[32], reason[256];
+      const int K = m_opt.adaptiveSettings.maxK;
+      std::snprintf(value, sizeof value, "≤%dx%d", K, K);
+      std::snprintf(reason, sizeof reason,
+                    "adaptive: 2x2 samples per texel, up to %dx%d where samples disagree (edges, "
+                    "shadow boundaries; tolerance %g %%); hit maps %dx%d per texel",
+                    K, K, 100.0 * m_opt.adaptiveSettings.tolerance, m_mapSpp, m_mapSpp);
+      m_plan->decisions.push_back({"sampling", value, reason, false, 0});
+    }
   }
   return *m_plan;
 }
@@ -149,7 +177,7 @@ BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
   auto exactDeg = [](double rad) { return std::round(rad2deg(rad) * 1e9) / 1e9; };
   for (const auto& d : m_dirs.dirs()) i.dirsDeg.push_back({exactDeg(d.theta), exactDeg(d.phi)});
   i.chunkTexels = chunkTexels;
-  i.spp = m_opt.spp;
+  i.spp = m_mapSpp;
   const EffectPlan& pl = plan();
   i.shadows = m_opt.method == "pt" ? "exact (path traced)"
               : pl.selfShadowing   ? shadowModeName(m_opt.shadows)
@@ -162,6 +190,14 @@ BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
   i.sceneJson = sceneToJson(m_scene);
   nlohmann::ordered_json plan = nlohmann::ordered_json::parse(pl.toJson(false));
   plan["method"] = m_opt.method;
+  if (m_adaptive)
+    plan["sampling"] = {{"mode", "adaptive"},
+                        {"base", 2},
+                        {"max", m_opt.adaptiveSettings.maxK},
+                        {"map", m_mapSpp},
+                        {"tolerance", m_opt.adaptiveSettings.tolerance}};
+  else
+    plan["sampling"] = {{"mode", "uniform"}, {"spp", m_opt.spp}};
   if (m_opt.method == "pt") plan["pt_paths_per_sample"] = m_opt.ptPaths;
   if (m_opt.method == "network" && pl.interreflection) {
     const NetworkSettings n = networkSettings();
@@ -190,6 +226,7 @@ struct TexelKernel {
   const DirectIllumination& direct;
   const NetworkGather* gather = nullptr;
   bool pathTrace = false;
+  const AdaptiveTexelSampler* adaptive = nullptr;
   PathSettings pt;
   int ptPaths = 1;
   std::vector<DVec3> lights;
@@ -198,6 +235,7 @@ struct TexelKernel {
     const int nL = dirs.size();
     const SampleGrid& g = maps.grid();
     const int K2 = g.spp * g.spp;
+    if (adaptive && !pathTrace) return adaptive->eval(i, j, view, out);
     if (pathTrace) {
       std::vector<Rgb> acc(size_t(nL), Rgb(0));
       const float w = 1.0f / (float(K2) * float(ptPaths));
@@ -246,10 +284,14 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   const bool gi = !pt && pl.interreflection;
   const int nD = m_dirs.size();
   const int64_t texels = int64_t(m_opt.nu) * m_opt.nv;
-  const uint64_t samples = uint64_t(texels) * uint64_t(m_opt.spp) * uint64_t(m_opt.spp);
+  const uint64_t samples = uint64_t(texels) * uint64_t(m_mapSpp) * uint64_t(m_mapSpp);
+  // Kernel calls: one per (texel, view) when adaptive (calibrated on whole texels), one per
+  // (sample, view) when uniform (calibrated on 1-sample texels).
+  const double units = m_adaptive ? double(texels) : double(samples);
   BtfInfo probe = storeInfo(1);
   const uint64_t texelBytes = probe.texelBytes();
-  e.hitMapBytes = uint64_t(nD) * samples * HitMaps::kBytesPerSample;
+  e.hitMapBytes = uint64_t(nD) * samples *
+                  (HitMaps::kBytesPerSample + (m_adaptive ? HitMaps::kEdgeBytesPerSample : 0));
   const uint64_t vmfBytes = pl.vmf ? uint64_t(nD) * uint64_t(texels) * 8 : 0;
   if (gi)
     e.networkBytes = m_network->memoryBytes() +
@@ -291,10 +333,13 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   // Time: calibrate on this scene — hit maps and the kernels on a coarse 8×8 grid with the same
   // directions, materials and plan; cost per (sample, view) scales with nL.
   const int cal = 8;
-  SampleGrid g{cal, cal, 1, m_scene.Lx, m_scene.Ly, m_opt.seed};
+  SampleGrid g{cal, cal, m_adaptive ? m_mapSpp : 1, m_scene.Lx, m_scene.Ly, m_opt.seed};
   HitMaps maps;
   auto t0 = Clock::now();
-  withThreads(1, [&] { maps.build(*m_tracer, m_dirs, g, nullptr, m_cancel); });
+  withThreads(1, [&] {
+    maps.build(*m_tracer, m_dirs, g, nullptr, m_cancel);
+    if (m_adaptive) maps.buildEdgeTables(m_geom, m_cancel);
+  });
   checkCancel();
   const double perRay = since(t0) / double(maps.raysTraced());
   const double threads = std::max(1, e.threads);
@@ -306,7 +351,14 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     checkCancel();
     DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
                               {m, m_opt.shadowBias, grazingRays});
-    TexelKernel k{*m_tracer, m_materials, m_dirs, maps, direct, gather, pathTrace, {}, 1, {}};
+    TexelKernel k{*m_tracer, m_materials, m_dirs, maps, direct, gather, pathTrace, nullptr, {}, 1,
+                  {}};
+    std::unique_ptr<AdaptiveTexelSampler> ad;
+    if (m_adaptive) {
+      ad = std::make_unique<AdaptiveTexelSampler>(*m_tracer, m_materials, m_dirs, maps, direct, gather,
+                                                  m_opt.adaptiveSettings, nullptr);
+      k.adaptive = ad.get();
+    }
     k.ptPaths = 1;
     k.pt.maxBounces = pl.interreflection ? pl.bounces : 1;
     for (const auto& d : m_dirs.dirs()) k.lights.push_back(DVec3(Vec3(d.w)));
@@ -320,15 +372,15 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     // What exact rays for the grazing lights cost over the map alone.
     const double mapOnly = timeKernel(mode, nullptr, false, 90);
     const double cost =
-        double(samples) * double(nD) * std::max(0.0, perSampleView - mapOnly) / threads;
+        units * double(nD) * std::max(0.0, perSampleView - mapOnly) / threads;
     gr->secondsSaved = -cost;  // a cost: printed as such, kept out of the store's header
   }
-  e.evalSeconds = double(samples) * double(nD) * perSampleView / threads;
+  e.evalSeconds = units * double(nD) * perSampleView / threads;
   // What each planner decision saves (or would cost).
   if (!pt && !pl.selfShadowing) {
     const double with = timeKernel(m_opt.shadows, nullptr, false, m_opt.grazingRays);
     plm.find("self_shadowing")->secondsSaved =
-        std::max(0.0, double(samples) * double(nD) * (with - perSampleView) / threads);
+        std::max(0.0, units * double(nD) * (with - perSampleView) / threads);
   }
   if (!pt && m_network && !m_network->points().empty()) {
     // Network solve: two lights on one thread; gather: the same calls with the final gather.
@@ -351,7 +403,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     const double withGather = timeKernel(mode, &gather, false, m_opt.grazingRays);
     const double lightSeconds = light.setupSeconds() + perLight * nD / threads;
     const double gatherSeconds =
-        double(samples) * double(nD) * std::max(0.0, withGather - perSampleView) / threads;
+        units * double(nD) * std::max(0.0, withGather - perSampleView) / threads;
     if (gi && !pl.glossyIndirect && anyGlossy(m_materials)) {
       // What gathering through the glossy lobes would have cost (mean-direction variant).
       NetworkLighting lg;
@@ -367,7 +419,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
       NetworkGather gg(*m_network, lg, m_geom, m_materials);
       const double withGlossy = timeKernel(mode, &gg, false, m_opt.grazingRays);
       plm.find("glossy_indirect")->secondsSaved =
-          double(samples) * double(nD) * std::max(0.0, withGlossy - withGather) / threads;
+          units * double(nD) * std::max(0.0, withGlossy - withGather) / threads;
     }
     if (gi) {
       e.networkSeconds = 0;  // already built by the planner
@@ -407,11 +459,12 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     r.networkLinks = m_network->links().size();
   }
 
-  SampleGrid grid{m_opt.nu, m_opt.nv, m_opt.spp, m_scene.Lx, m_scene.Ly, m_opt.seed};
+  SampleGrid grid{m_opt.nu, m_opt.nv, m_mapSpp, m_scene.Lx, m_scene.Ly, m_opt.seed};
   HitMaps maps;
   {
     ProgressReporter pr("hit maps", m_dirs.size(), m_opt.progress);
     maps.build(*m_tracer, m_dirs, grid, &pr, cancel);
+    if (m_adaptive) maps.buildEdgeTables(m_geom, cancel);
     pr.finish();
   }
   r.hitMapSeconds = since(start);
@@ -450,7 +503,16 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
     throwIfCancelled(cancel, "network light");
   }
-  TexelKernel kernel{*m_tracer, m_materials, m_dirs, maps, direct, gather.get(), pt, {}, 1, {}};
+  TexelKernel kernel{*m_tracer, m_materials, m_dirs, maps, direct, gather.get(), pt, nullptr,
+                     {},         1,           {}};
+  AdaptiveStats adStats;
+  std::unique_ptr<AdaptiveTexelSampler> adaptive;
+  if (m_adaptive) {
+    adaptive = std::make_unique<AdaptiveTexelSampler>(*m_tracer, m_materials, m_dirs, maps, direct,
+                                                      gather.get(), m_opt.adaptiveSettings,
+                                                      m_onlyTrainingTexels ? nullptr : &adStats);
+    kernel.adaptive = adaptive.get();
+  }
   kernel.ptPaths = m_opt.ptPaths;
   kernel.pt.maxBounces = pl.interreflection ? pl.bounces : 1;
   kernel.pt.seed = m_opt.seed;
@@ -545,6 +607,13 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   r.evalSeconds = since(evalStart);
   r.renderSeconds = since(renderStart);
   r.brdfEvaluations = evals.load();
+  if (m_adaptive) {
+    r.adaptive = true;
+    r.samplingJson = adStats.json();
+    r.samplingText = adStats.histogramText();
+    r.meanSamples = adStats.meanSamples();
+    r.estimatedError = adStats.estimatedRelativeError();
+  }
   if (writer) {
     writer->finish();
     r.outputBytes = btfFileBytes(info);
@@ -597,9 +666,10 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
   const EffectPlan* pl = indirect ? &plan() : nullptr;
   const bool selfShadowing = pl ? pl->selfShadowing : true;
   const bool gi = indirect && !pt && pl->interreflection;
-  SampleGrid grid{nu, nv, m_opt.spp, m_scene.Lx, m_scene.Ly, m_opt.seed};
+  SampleGrid grid{nu, nv, m_mapSpp, m_scene.Lx, m_scene.Ly, m_opt.seed};
   HitMaps maps;
   maps.build(*m_tracer, pair, grid, nullptr, cancel);
+  if (m_adaptive) maps.buildEdgeTables(m_geom, cancel);
   std::vector<float> img(size_t(nu) * size_t(nv) * 3, 0.f);
   throwIfCancelled(cancel, "preview");
   const ShadowMode mode = selfShadowing ? m_opt.shadows : ShadowMode::None;
@@ -618,8 +688,15 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
     throwIfCancelled(cancel, "preview");
     gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
   }
-  TexelKernel kernel{*m_tracer,    m_materials,    pair, maps, direct,
-                     gather.get(), pt && indirect, {},   1,    {}};
+  TexelKernel kernel{*m_tracer, m_materials,    pair,    maps, direct,
+                     gather.get(), pt && indirect, nullptr, {},   1,
+                     {}};
+  std::unique_ptr<AdaptiveTexelSampler> adaptive;
+  if (m_adaptive) {
+    adaptive = std::make_unique<AdaptiveTexelSampler>(*m_tracer, m_materials, pair, maps, direct, gather.get(),
+                                                      m_opt.adaptiveSettings, nullptr);
+    kernel.adaptive = adaptive.get();
+  }
   kernel.ptPaths = m_opt.ptPaths;
   kernel.pt.maxBounces = pl && pl->interreflection ? pl->bounces : 1;
   kernel.pt.seed = m_opt.seed;

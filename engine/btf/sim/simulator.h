@@ -7,6 +7,7 @@
 #include <btf/geometry/mesh.h>
 #include <btf/scene/material.h>
 #include <btf/scene/scene.h>
+#include <btf/sim/adaptive.h>
 #include <btf/sim/direct.h>
 #include <btf/sim/network.h>
 #include <btf/sim/planner.h>
@@ -28,7 +29,13 @@ inline NetworkSettings autoNetwork() {
 struct SimOptions {
   int nu = 32, nv = 32;
   std::string directions = "bonn81";
-  int spp = 1;
+  int spp = 1;  // uniform sampling: K×K jittered samples per texel (1 = texel centre)
+  /// Adaptive integration of each texel's footprint (sim/adaptive.h), the default; uniform K×K
+  /// (`spp`) is the reference mode. The path tracer (method pt) always samples uniformly.
+  /// Off in a bare SimOptions; optionsFromScene takes the scene's `sampling` (adaptive unless
+  /// the scene says uniform), so every command and the studio default to adaptive.
+  bool adaptive = false;
+  AdaptiveSettings adaptiveSettings;
   ShadowMode shadows = ShadowMode::Map;
   float shadowBias = 1.0f;
   /// Map mode: lights at θi ≥ this (degrees) use exact shadow rays (90 = none): the planner's
@@ -74,7 +81,11 @@ struct SimReport {
   uint64_t brdfEvaluations = 0;  // (sample, view, light) BRDF × visibility evaluations
   uint64_t peakRssBytes = 0, outputBytes = 0;
   int chunks = 0, chunksResumed = 0;
-  std::string resumeNote;  // a --resume that found a truncated or unreadable .partial
+  std::string resumeNote;
+  // Adaptive sampling: samples per value (histogram), the error estimate (JSON of AdaptiveStats)
+  bool adaptive = false;
+  std::string samplingJson, samplingText;
+  double meanSamples = 0, estimatedError = 0;  // a --resume that found a truncated or unreadable .partial
 };
 
 class SimulationJob {
@@ -89,6 +100,11 @@ class SimulationJob {
   const DirectionSet& directions() const { return m_dirs; }
   const std::vector<Material>& materials() const { return m_materials; }
   std::string sceneHash() const;
+  /// Adaptive sampling in effect (network method and not --sampling uniform).
+  bool adaptive() const { return m_adaptive; }
+  /// Samples per texel side of the hit maps: spp when uniform; 4 (or 2 when the memory budget
+  /// is tight, or --max-spp 2) when adaptive.
+  int mapSpp() const { return m_mapSpp; }
   /// Cancellation of the set-up work (the point network, the planner's probes, the estimate's
   /// calibration): each throws btf::Cancelled once `cancel` is set. run() takes its own.
   void setCancel(const CancelToken* cancel) { m_cancel = cancel; }
@@ -146,6 +162,8 @@ class SimulationJob {
   TrainingSink m_trainSink;
   bool m_onlyTrainingTexels = false;
   const CancelToken* m_cancel = nullptr;
+  bool m_adaptive = false;
+  int m_mapSpp = 1;
   void checkCancel() const;
 };
 

@@ -1,0 +1,79 @@
+// Adaptive integration of a texel's footprint (§2.6's virtual camera, issue 12). A texel's value
+// is the integral of the aBRDF over its footprint on the reference plane; it is estimated on
+// nested, stratified, jittered sample sets — level L has (2^(L+1))² samples, one per stratum, and
+// contains level L−1 — and each light of a (texel, view) stops at the first level whose estimated
+// error is below the tolerance:
+//  - level 0 (2×2) and the hit map's own level (4×4 when the budget allows) cost no ray;
+//  - the geometry of the hit map's samples decides whether the texel straddles an edge (hit and
+//    miss, two materials, a crease, a depth step): then every light goes to the map's level;
+//  - otherwise a light goes up when its level-0 contributions disagree (a shadow edge, a lobe);
+//  - from there a light goes up while the change between two levels, the error estimate of a
+//    stratified estimator, exceeds tolerance × max(value, floor); finer levels trace their own
+//    camera rays, once per (texel, view), shared by every light that needs them.
+// Sample positions depend on (seed, texel, level, stratum) only — not on the view, the thread or
+// the chunk — so runs are deterministic with any thread count, resume to the same bytes, and the
+// studio's single-pair preview equals the stored value.
+#pragma once
+#include <btf/sim/direct.h>
+#include <btf/sim/network.h>
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace btf {
+
+struct AdaptiveSettings {
+  int maxK = 8;             // finest level: maxK × maxK samples (a power of two, 2..64)
+  float tolerance = 0.01f;  // estimated error per value, relative to max(value, floor)
+};
+
+/// What the texels took, summed over a run (atomic: kernels run on every thread).
+struct AdaptiveStats {
+  static constexpr int kLevels = 6;  // 2×2, 4×4, 8×8, 16×16, 32×32, 64×64
+  std::array<std::atomic<uint64_t>, kLevels> values{};  // (texel, view, light) values by level
+  std::atomic<uint64_t> texelViews{0}, edgeTexelViews{0}, cameraRays{0};
+  std::atomic<double> errorSq{0}, valueSq{0};  // Σ estimated error², Σ value² (luminance)
+  /// Mean samples per value, the estimated relative RMS error, and the histogram as JSON.
+  std::string json() const;
+  double meanSamples() const;
+  double estimatedRelativeError() const;
+  /// "4²: 71 %, 16²: 22 %, …"
+  std::string histogramText() const;
+};
+
+class AdaptiveTexelSampler {
+ public:
+  /// The floor of the relative tolerance follows the scene's brightest material.
+  /// `maps` must have been built with spp 2 or 4 (the map's level); `gather` (may be null) adds
+  /// the network's indirect light over the map's samples at edges, level 0 elsewhere.
+  AdaptiveTexelSampler(const PeriodicTracer& tracer, const std::vector<Material>& materials,
+                       const DirectionSet& dirs, const HitMaps& maps, const DirectIllumination& direct,
+                       const NetworkGather* gather, AdaptiveSettings settings,
+                       AdaptiveStats* stats);
+  /// aBRDF of texel (i, j) seen from `view` for every light: out[l * 3 + c]. Returns the number
+  /// of (sample, light) evaluations.
+  int64_t eval(int i, int j, int view, float* out) const;
+
+ private:
+  const PeriodicTracer& m_tracer;
+  const DirectionSet& m_dirs;
+  const HitMaps& m_maps;
+  const DirectIllumination& m_direct;
+  const NetworkGather* m_gather;
+  AdaptiveSettings m_settings;
+  AdaptiveStats* m_stats;
+  int m_mapLevel = 0, m_maxLevel = 0;
+  double m_texelSize = 1;
+  float m_floor = 0.05f;  // values below it are judged by absolute error
+  bool m_shadowEdges = false;
+  float m_toSampleX = 1, m_toSampleY = 1;
+  std::vector<float> m_slopeX, m_slopeY;  // ωx/ωz, ωy/ωz of every light
+};
+
+/// Level of a K×K set (K = 2 → 0, 4 → 1, …); -1 when K is not a power of two in 2..32.
+int adaptiveLevel(int K);
+
+}  // namespace btf
