@@ -226,7 +226,7 @@ std::vector<CommandDecl> build() {
         str("method", "network", "methods: network, pt (comma-separated; first = base)"),
         str("paths", "1", "pt: paths per texel sample"),
         str("dirs", "bonn81,8x16,16x32", "direction sets (first = base)"),
-        str("spp", "1,2", "K values"),
+        str("spp", "0,1,2", "K values (0 = adaptive sampling, the default; first = base)"),
         str("shadows", "map,rays", "shadow modes: map, rays"),
         str("network_voxels", "0,16,64", "network densities (0 = one per texel)"),
         str("gather", "4,1,8", "N1 values"),

@@ -40,7 +40,11 @@ void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o) 
   Request sim("simulate");
   sim.set("scene", r.s("scene")).set("output", raw);
   sim.set("texels", std::to_string(o.nu) + "x" + std::to_string(o.nv)).set("dirs", o.base.dirs);
-  sim.set("spp", double(o.base.spp)).set("shadows", shadowModeName(o.base.shadows));
+  if (o.base.spp > 0)
+    sim.set("spp", double(o.base.spp));
+  else
+    sim.set("sampling", "adaptive");
+  sim.set("shadows", shadowModeName(o.base.shadows));
   sim.set("method", o.base.method);
   SimOptions so = simOptions(scene, sim);
   so.progress = c.progress();
@@ -143,7 +147,7 @@ void study(const Call& c) {
   o.paths = intList(r.s("paths"), "--paths", 1, 4096);
   o.dirs = splitList(r.s("dirs"), "--dirs");
   for (const auto& d : o.dirs) DirectionSet::fromName(d);  // validate early
-  o.spp = intList(r.s("spp"), "--spp", 1, 64);
+  o.spp = intList(r.s("spp"), "--spp", 0, 64);
   for (const auto& m : splitList(r.s("shadows"), "--shadows")) {
     const ShadowMode sm = parseShadowMode(m);
     if (sm == ShadowMode::None) throw Error("--shadows: use map or rays");

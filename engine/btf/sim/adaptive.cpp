@@ -17,13 +17,9 @@ int adaptiveLevel(int K) {
 }
 
 double AdaptiveStats::meanSamples() const {
-  double n = 0, s = 0;
-  for (int L = 0; L < kLevels; ++L) {
-    const double k = double(2 << L);
-    n += double(values[size_t(L)].load());
-    s += double(values[size_t(L)].load()) * k * k;
-  }
-  return n > 0 ? s / n : 0;
+  double n = 0;
+  for (const auto& v : values) n += double(v.load());
+  return n > 0 ? double(samples.load()) / n : 0;
 }
 
 double AdaptiveStats::estimatedRelativeError() const {
@@ -75,11 +71,12 @@ struct Sample {
 
 struct Scratch {
   std::vector<Sample> levels[AdaptiveStats::kLevels];
-  std::vector<Rgb> acc;    // per light: Σ contributions over the samples of its level
-  std::vector<int> count;  // per light: samples of its level
+  // Per active light (slot) and cell of the current level: luminance, RGB, own sample or not.
+  std::vector<float> cellY, nextY;
+  std::vector<Rgb> cellRgb, nextRgb;
+  std::vector<uint8_t> cellReal, nextReal, split, made, kept, hot;
+  std::vector<int> samplesUsed, finalLevel, keep;
   std::vector<float> err;             // per light: error estimate of its last level
-  std::vector<float> yPrev, yCur;     // [active slot][stratum]: luminance contributions
-  std::vector<int> slot;              // per light: its slot in yPrev
   std::vector<uint8_t> flagged;       // per light: a shadow edge lies in its footprint
   std::vector<int> active, next;
 };
@@ -194,163 +191,250 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   if (!edge && m_maps.hasEdgeTables())
     edge = m_maps.edgeCount(view, i * Km - 1, (i + 1) * Km + 1, j * Km - 1, (j + 1) * Km + 1) > 0;
 
-  // Shadow boundaries: the light's own edge table over the footprint of the receivers seen in
-  // this texel, projected along ωi onto the plane (the texel swept over its receivers' heights,
-  // widened by a map sample). A light whose footprint holds an edge is refined as if an edge of
-  // its full value crossed the texel unseen: error ≥ 0.4 · value · K^-1.5; and in map mode its
-  // visibility comes from exact shadow rays (the map places a boundary within ±½ map sample).
-  sc.flagged.assign(size_t(nL), 0);
+  // Shadow boundaries: a light whose hit map (= its shadow map) has a discontinuity inside the
+  // footprint of a quadrant of the texel — the quadrant swept along −ωi over the heights of its
+  // receivers, widened by a map sample — is flagged: shaded with exact shadow rays (map mode
+  // too: the map places a boundary only within ±½ map sample), and its cells whose own
+  // footprint holds the edge are split.
   int okCount = 0;
-  for (const Sample& S : sc.levels[0]) okCount += S.ok;
-  float zlo = INFINITY, zhi = -INFINITY;
-  for (const Sample& S : map)
-    if (S.ok) zlo = std::min(zlo, S.s.p.z), zhi = std::max(zhi, S.s.p.z);
+  for (const Sample& S : map) okCount += S.ok;
+  // Heights of the receivers of cell (c, r) of a level with K ≤ Km cells per side.
+  auto zRange = [&](int K, int c, int r, float* lo, float* hi) {
+    const int w = Km / K;
+    *lo = INFINITY, *hi = -INFINITY;
+    for (int b = r * w; b < (r + 1) * w; ++b)
+      for (int a = c * w; a < (c + 1) * w; ++a) {
+        const Sample& S = map[size_t(b) * Km + a];
+        if (S.ok) *lo = std::min(*lo, S.s.p.z), *hi = std::max(*hi, S.s.p.z);
+      }
+    return *lo <= *hi;
+  };
+  // Edge samples of direction d's table in the texel-local rectangle [x0, x1] × [y0, y1] swept
+  // along −ω over heights [zlo, zhi] (slopes sx, sy in samples per unit height), widened by one
+  // sample.
+  auto edgesIn = [&](int d, float x0, float x1, float y0, float y1, float sx, float sy, float zlo,
+                     float zhi) {
+    const float a0 = (float(i) + x0) * float(Km) - std::max(zlo * sx, zhi * sx) - 1.0f;
+    const float a1 = (float(i) + x1) * float(Km) - std::min(zlo * sx, zhi * sx) + 1.0f;
+    const float b0 = (float(j) + y0) * float(Km) - std::max(zlo * sy, zhi * sy) - 1.0f;
+    const float b1 = (float(j) + y1) * float(Km) - std::min(zlo * sy, zhi * sy) + 1.0f;
+    return m_maps.edgeCount(d, int(std::floor(a0)), int(std::ceil(a1)), int(std::floor(b0)),
+                            int(std::ceil(b1))) > 0;
+  };
+  sc.flagged.assign(size_t(nL), 0);
+  float qlo[4], qhi[4];
+  bool qok[4];
+  for (int q = 0; q < 4; ++q) qok[q] = zRange(2, q & 1, q >> 1, &qlo[q], &qhi[q]);
   for (int l = 0; l < nL && m_shadowEdges && okCount; ++l) {
-    // The texel's rectangle, swept along −ωi over the heights of its receivers, plus one sample.
     const float sx = m_slopeX[size_t(l)] * m_toSampleX, sy = m_slopeY[size_t(l)] * m_toSampleY;
-    const float a0 = float(i * Km) - std::max(zlo * sx, zhi * sx) - 1.0f;
-    const float a1 = float((i + 1) * Km) - std::min(zlo * sx, zhi * sx) + 1.0f;
-    const float b0 = float(j * Km) - std::max(zlo * sy, zhi * sy) - 1.0f;
-    const float b1 = float((j + 1) * Km) - std::min(zlo * sy, zhi * sy) + 1.0f;
-    sc.flagged[size_t(l)] = m_maps.edgeCount(l, int(std::floor(a0)), int(std::ceil(a1)),
-                                             int(std::floor(b0)), int(std::ceil(b1))) > 0;
+    for (int q = 0; q < 4 && !sc.flagged[size_t(l)]; ++q)
+      sc.flagged[size_t(l)] = qok[q] && edgesIn(l, 0.5f * float(q & 1), 0.5f * float((q & 1) + 1),
+                                                0.5f * float(q >> 1), 0.5f * float((q >> 1) + 1),
+                                                sx, sy, qlo[q], qhi[q]);
   }
-  // Level 0 for every light; y holds each active light's per-sample luminance contributions.
-  sc.acc.assign(size_t(nL), Rgb(0));
-  sc.count.assign(size_t(nL), 4);
-  sc.err.assign(size_t(nL), 0.f);
-  sc.active.resize(size_t(nL));
-  for (int l = 0; l < nL; ++l) sc.active[size_t(l)] = l;
-  sc.yPrev.assign(size_t(nL) * 4, 0.f);
-  sc.slot.assign(size_t(nL), -1);
+
+  // A sample's contribution for light l (flagged lights: exact shadow rays).
+  auto contrib = [&](const Sample& S, int l) -> Rgb {
+    return m_direct.contribution(S.s, l, sc.flagged[size_t(l)] != 0);
+  };
+
+  // Every light starts from level 0. Per light and level, a K×K array of cells: the luminance
+  // and RGB of the cell's own sample ("real" cells) or, where a coarser cell was not split, of
+  // that cell's sample (a stratum of the coarser level). The estimate is the mean over cells.
+  sc.cellY.assign(size_t(nL) * 4, 0.f);
+  sc.cellRgb.assign(size_t(nL) * 4, Rgb(0));
+  sc.cellReal.assign(size_t(nL) * 4, 1);
+  sc.samplesUsed.assign(size_t(nL), 4);
+  sc.finalLevel.assign(size_t(nL), 0);
   int64_t evals = 0;
   for (int q = 0; q < 4; ++q) {
     const Sample& S = sc.levels[0][size_t(q)];
     if (!S.ok) continue;
     for (int l = 0; l < nL; ++l) {
-      const Rgb c = m_direct.contribution(S.s, l, sc.flagged[size_t(l)] != 0);
-      sc.acc[size_t(l)] += c;
-      sc.yPrev[size_t(l) * 4 + size_t(q)] = lum(c);
+      const Rgb c = contrib(S, l);
+      sc.cellRgb[size_t(l) * 4 + size_t(q)] = c;
+      sc.cellY[size_t(l) * 4 + size_t(q)] = lum(c);
     }
     evals += nL;
   }
-  // Values below the floor count by absolute error (a light's decision depends on nothing but
-  // its own samples: a one-pair preview refines exactly as the full run).
   const float tol = m_settings.tolerance;
   auto threshold = [&](float mean) { return tol * std::max(std::abs(mean), m_floor); };
-  auto unseenEdge = [](float mean, int K) {
-    return 0.4f * std::abs(mean) / (float(K) * std::sqrt(float(K)));
-  };
-  // Error of a level's mean from the differences between neighbouring strata (across block
-  // boundaries too, so that an edge lying on a stratum boundary is not missed): a step of height
-  // c crossing a K×K set differs in ~K neighbour pairs and leaves an error ~0.4 c K^-1.5 — what
-  // 0.5 · sqrt(Σ Δ²) / K² gives; a smooth gradient gives ~g / K², the jittered estimate's order.
-  auto strataError = [](const float* y, int K) {
-    double sum = 0;
-    for (int r = 0; r < K; ++r)
-      for (int c = 0; c < K; ++c) {
-        const float v = y[size_t(r) * K + c];
-        if (c + 1 < K) sum += double(v - y[size_t(r) * K + c + 1]) * (v - y[size_t(r) * K + c + 1]);
-        if (r + 1 < K) sum += double(v - y[size_t(r + 1) * K + c]) * (v - y[size_t(r + 1) * K + c]);
-      }
-    return float(0.5 * std::sqrt(sum) / (double(K) * K));
-  };
-  // Level-0 samples are stored in quadrant order: the same as a 2×2 stratum grid.
-  sc.next.clear();
-  for (int l = 0; l < nL; ++l) {
-    float e = strataError(&sc.yPrev[size_t(l) * 4], 2);
-    const float mean = lum(sc.acc[size_t(l)]) * 0.25f;
-    if (sc.flagged[size_t(l)]) e = std::max(e, unseenEdge(mean, 2));
-    sc.err[size_t(l)] = e;
-    sc.slot[size_t(l)] = l;
-    if (m_maxLevel >= 1 && (edge || e > threshold(mean))) sc.next.push_back(l);
-  }
-  std::swap(sc.active, sc.next);
-  int prevN = 4;
+  sc.active.resize(size_t(nL));
+  for (int l = 0; l < nL; ++l) sc.active[size_t(l)] = l;
+  sc.err.assign(size_t(nL), 0.f);
 
-  // Finer levels while a light's estimate is still uncertain.
+  // Level by level: each active light splits the cells that need it; the others stop.
   uint64_t rays = 0;
-  for (int L = 1; L <= m_maxLevel && !sc.active.empty(); ++L) {
-    const int K = 2 << L;
-    std::vector<Sample>& cur = sc.levels[L];
-    if (L > m_mapLevel) {
-      // Split every stratum of level L − 1 in four: the child holding the parent's sample keeps
-      // it, the three others get fresh jittered samples (and camera rays).
-      const std::vector<Sample>& par = sc.levels[L - 1];
-      const int Kp = K / 2;
-      cur.resize(size_t(K) * K);
-      for (int pj = 0; pj < Kp; ++pj)
-        for (int pi = 0; pi < Kp; ++pi) {
-          const Sample& ps = par[size_t(pj) * Kp + pi];
-          const int cx = std::clamp(int(ps.lx * float(K)), 2 * pi, 2 * pi + 1);
-          const int cy = std::clamp(int(ps.ly * float(K)), 2 * pj, 2 * pj + 1);
-          for (int d = 0; d < 4; ++d) {
-            const int ci = 2 * pi + (d & 1), cj = 2 * pj + (d >> 1);
-            Sample& cs = cur[size_t(cj) * K + ci];
-            if (ci == cx && cj == cy) {
-              cs = ps;
-              cs.inPrev = true;
-              cs.prevIndex = pj * Kp + pi;
-              continue;
-            }
-            const uint64_t h = hashKeys(g.seed ^ 0xada97a1e5ull, uint64_t(i) * K + uint64_t(ci),
-                                        uint64_t(j) * K + uint64_t(cj), uint64_t(L));
-            cs.lx = (float(ci) + uniformFloat(h)) / float(K);
-            cs.ly = (float(cj) + uniformFloat(mix64(h))) / float(K);
-            cs.pos = DVec3((i + double(cs.lx)) * g.Lx / g.nu, (j + double(cs.ly)) * g.Ly / g.nv,
-                           0.0);
-            float depth;
-            const RayHit hit = traceSampleRay(m_tracer, cs.pos, wv, &depth);
-            ++rays;
-            cs.inPrev = false;
-            cs.prevIndex = -1;
-            cs.ok = hit.hit() && m_direct.surface(cs.pos, wv, hit.prim, hit.u, hit.v, depth, &cs.s);
-          }
-        }
-    }
-    const int n = K * K;
+  auto finishLight = [&](int l, const Rgb* cells, int n) {
+    Rgb sum(0);
+    for (int k = 0; k < n; ++k) sum += cells[k];
+    sum /= float(n);
+    out[3 * l] = sum.x, out[3 * l + 1] = sum.y, out[3 * l + 2] = sum.z;
+  };
+  for (int L = 0; !sc.active.empty(); ++L) {
+    const int K = 2 << L, n = K * K;
     const int nA = int(sc.active.size());
-    sc.yCur.assign(size_t(nA) * n, 0.f);
-    for (int k = 0; k < n; ++k) {
-      const Sample& S = cur[size_t(k)];
-      if (S.inPrev) {
-        for (int a = 0; a < nA; ++a)
-          sc.yCur[size_t(a) * n + k] =
-              sc.yPrev[size_t(sc.slot[size_t(sc.active[size_t(a)])]) * prevN + S.prevIndex];
-        continue;
-      }
-      if (!S.ok) continue;
-      for (int a = 0; a < nA; ++a) {
-        const int l = sc.active[size_t(a)];
-        const Rgb c = m_direct.contribution(S.s, l, sc.flagged[size_t(l)] != 0);
-        sc.acc[size_t(l)] += c;
-        sc.yCur[size_t(a) * n + k] = lum(c);
-      }
-      evals += nA;
-    }
+    // 1. Which cells of each active light split.
+    sc.split.assign(size_t(nA) * n, 0);
     sc.next.clear();
+    std::vector<int>& keep = sc.keep;
+    keep.clear();
+    sc.kept.assign(size_t(nA), 0);
     for (int a = 0; a < nA; ++a) {
       const int l = sc.active[size_t(a)];
-      sc.count[size_t(l)] = n;
-      sc.slot[size_t(l)] = a;
-      const float mean = lum(sc.acc[size_t(l)]) / float(n);
-      float e = strataError(&sc.yCur[size_t(a) * n], K);
-      if (sc.flagged[size_t(l)]) e = std::max(e, unseenEdge(mean, K));
+      const float* y = &sc.cellY[size_t(a) * n];
+      const uint8_t* real = &sc.cellReal[size_t(a) * n];
+      double sumY = 0, d2 = 0;
+      for (int k = 0; k < n; ++k) sumY += y[k];
+      const float mean = float(sumY / n);
+      // The error of this level from the differences of neighbouring cells (pairs with a real
+      // cell): a step of height c across K×K strata leaves ~0.4 c K^-1.5, what this gives.
+      for (int r = 0; r < K; ++r)
+        for (int c = 0; c < K; ++c) {
+          const int k = r * K + c;
+          if (c + 1 < K && (real[k] || real[k + 1])) d2 += double(y[k] - y[k + 1]) * (y[k] - y[k + 1]);
+          if (r + 1 < K && (real[k] || real[k + K])) d2 += double(y[k] - y[k + K]) * (y[k] - y[k + K]);
+        }
+      const float e = float(0.5 * std::sqrt(d2) / double(n));
       sc.err[size_t(l)] = e;
-      if (L < m_maxLevel && e > threshold(mean))
-        sc.next.push_back(l);
+      sc.finalLevel[size_t(l)] = L;
+      if (L == m_maxLevel) continue;
+      const float thr = threshold(mean);
+      const bool byValue = e > thr;
+      // Edge tables resolve cells down to a map sample: level 0 splits whole (free samples)
+      // on a geometric or shadow edge; at the map's level a flagged light splits the cells
+      // whose footprint holds its shadow edge, and the view's edges split where values differ.
+      const bool flaggedL = sc.flagged[size_t(l)] != 0;
+      const bool byEdges =
+          (L == 0 && (edge || flaggedL)) || (L <= m_mapLevel && (flaggedL || (edge && byValue)));
+      if (!byValue && !byEdges) continue;
+      uint8_t* sp = &sc.split[size_t(a) * n];
+      bool any = false;
+      const float inv = 1.0f / float(K);
+      if (byValue) {
+        // Cells that differ from a neighbour (an edge or a lobe passes between them), and their
+        // four neighbours: the edge may clip a neighbour whose own sample agrees.
+        sc.hot.assign(size_t(n), 0);
+        for (int r = 0; r < K; ++r)
+          for (int c = 0; c < K; ++c) {
+            const int k = r * K + c;
+            if (c + 1 < K && std::abs(y[k] - y[k + 1]) > thr) sc.hot[k] = sc.hot[k + 1] = 1;
+            if (r + 1 < K && std::abs(y[k] - y[k + K]) > thr) sc.hot[k] = sc.hot[k + K] = 1;
+          }
+      }
+      for (int r = 0; r < K; ++r)
+        for (int c = 0; c < K; ++c) {
+          const int k = r * K + c;
+          if (!real[k]) continue;
+          bool s = false;
+          if (byValue)
+            s = sc.hot[size_t(k)] || (c > 0 && sc.hot[size_t(k - 1)]) ||
+                (c + 1 < K && sc.hot[size_t(k + 1)]) || (r > 0 && sc.hot[size_t(k - K)]) ||
+                (r + 1 < K && sc.hot[size_t(k + K)]);
+          if (!s && byEdges && L == 0) s = true;
+          if (!s && byEdges) {
+            const float x0 = c * inv, x1 = (c + 1) * inv, y0 = r * inv, y1 = (r + 1) * inv;
+            float zl, zh;
+            s = (edge && byValue && edgesIn(view, x0, x1, y0, y1, 0, 0, 0, 0)) ||
+                (sc.flagged[size_t(l)] && zRange(K, c, r, &zl, &zh) &&
+                 edgesIn(l, x0, x1, y0, y1, m_slopeX[size_t(l)] * m_toSampleX,
+                         m_slopeY[size_t(l)] * m_toSampleY, zl, zh));
+          }
+          sp[k] = s;
+          any = any || s;
+        }
+      if (any) keep.push_back(a), sc.kept[size_t(a)] = 1;
     }
+    // The lights that stop here keep this level's estimate.
+    for (int a = 0; a < nA; ++a)
+      if (!sc.kept[size_t(a)]) finishLight(sc.active[size_t(a)], &sc.cellRgb[size_t(a) * n], n);
+    if (keep.empty()) break;
+
+    // 2. The next level's samples where some light splits a cell (fresh camera rays beyond
+    // the map's level, traced once and shared by every light).
+    const int K2 = 2 * K, n2 = K2 * K2;
+    std::vector<Sample>& nxt = sc.levels[L + 1];
+    if (L + 1 > m_mapLevel) {
+      nxt.resize(size_t(n2));
+      sc.made.assign(size_t(n), 0);
+      for (int a : keep)
+        for (int k = 0; k < n; ++k) sc.made[size_t(k)] |= sc.split[size_t(a) * n + k];
+      const std::vector<Sample>& par = sc.levels[L];
+      for (int k = 0; k < n; ++k) {
+        if (!sc.made[size_t(k)]) continue;
+        const int pi = k % K, pj = k / K;
+        const Sample& ps = par[size_t(k)];
+        const int cx = std::clamp(int(ps.lx * float(K2)), 2 * pi, 2 * pi + 1);
+        const int cy = std::clamp(int(ps.ly * float(K2)), 2 * pj, 2 * pj + 1);
+        for (int d = 0; d < 4; ++d) {
+          const int ci = 2 * pi + (d & 1), cj = 2 * pj + (d >> 1);
+          Sample& cs = nxt[size_t(cj) * K2 + ci];
+          if (ci == cx && cj == cy) {
+            cs = ps;
+            cs.inPrev = true;
+            cs.prevIndex = k;
+            continue;
+          }
+          const uint64_t h = hashKeys(g.seed ^ 0xada97a1e5ull, uint64_t(i) * K2 + uint64_t(ci),
+                                      uint64_t(j) * K2 + uint64_t(cj), uint64_t(L + 1));
+          cs.lx = (float(ci) + uniformFloat(h)) / float(K2);
+          cs.ly = (float(cj) + uniformFloat(mix64(h))) / float(K2);
+          cs.pos =
+              DVec3((i + double(cs.lx)) * g.Lx / g.nu, (j + double(cs.ly)) * g.Ly / g.nv, 0.0);
+          float depth;
+          const RayHit hit = traceSampleRay(m_tracer, cs.pos, wv, &depth);
+          ++rays;
+          cs.inPrev = false;
+          cs.prevIndex = -1;
+          cs.ok = hit.hit() && m_direct.surface(cs.pos, wv, hit.prim, hit.u, hit.v, depth, &cs.s);
+        }
+      }
+    }
+
+    // 3. Each light that splits moves to the next level: split cells get their four children's
+    // samples (the parent's own sample is one of them), the others are copied down.
+    const int nK = int(keep.size());
+    sc.nextY.assign(size_t(nK) * n2, 0.f);
+    sc.nextRgb.assign(size_t(nK) * n2, Rgb(0));
+    sc.nextReal.assign(size_t(nK) * n2, 0);
+    for (int b = 0; b < nK; ++b) {
+      const int a = keep[size_t(b)];
+      const int l = sc.active[size_t(a)];
+      for (int k = 0; k < n; ++k) {
+        const int pi = k % K, pj = k / K;
+        for (int d = 0; d < 4; ++d) {
+          const int ci = 2 * pi + (d & 1), cj = 2 * pj + (d >> 1);
+          const size_t dst = size_t(b) * n2 + size_t(cj) * K2 + size_t(ci);
+          const size_t src = size_t(a) * n + size_t(k);
+          if (!sc.split[src]) {
+            sc.nextY[dst] = sc.cellY[src];
+            sc.nextRgb[dst] = sc.cellRgb[src];
+            continue;
+          }
+          sc.nextReal[dst] = 1;
+          const Sample& cs = nxt[size_t(cj) * K2 + ci];
+          if (cs.inPrev && cs.prevIndex == k) {
+            sc.nextY[dst] = sc.cellY[src];
+            sc.nextRgb[dst] = sc.cellRgb[src];
+            continue;
+          }
+          if (!cs.ok) continue;
+          const Rgb c = contrib(cs, l);
+          sc.nextRgb[dst] = c;
+          sc.nextY[dst] = lum(c);
+          ++evals;
+          ++sc.samplesUsed[size_t(l)];
+        }
+      }
+    }
+    sc.next.clear();
+    for (int a : keep) sc.next.push_back(sc.active[size_t(a)]);
     std::swap(sc.active, sc.next);
-    std::swap(sc.yPrev, sc.yCur);
-    prevN = n;
+    std::swap(sc.cellY, sc.nextY);
+    std::swap(sc.cellRgb, sc.nextRgb);
+    std::swap(sc.cellReal, sc.nextReal);
   }
 
-  for (int l = 0; l < nL; ++l) {
-    const float w = 1.0f / float(sc.count[size_t(l)]);
-    out[3 * l] = sc.acc[size_t(l)].x * w;
-    out[3 * l + 1] = sc.acc[size_t(l)].y * w;
-    out[3 * l + 2] = sc.acc[size_t(l)].z * w;
-  }
   if (m_gather) {
     // Indirect light, smooth over a texel away from edges: over the map's samples at edges.
     const std::vector<Sample>& set = edge ? map : sc.levels[0];
@@ -362,9 +446,10 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   if (m_stats) {
     uint64_t byLevel[AdaptiveStats::kLevels] = {};
     double errSq = 0, valSq = 0;
+    uint64_t used = 0;
     for (int l = 0; l < nL; ++l) {
-      const int L = adaptiveLevel(int(std::lround(std::sqrt(double(sc.count[size_t(l)])))));
-      ++byLevel[std::max(0, L)];
+      ++byLevel[sc.finalLevel[size_t(l)]];
+      used += uint64_t(sc.samplesUsed[size_t(l)]);
       errSq += double(sc.err[size_t(l)]) * sc.err[size_t(l)];
       const double v = lum(Rgb(out[3 * l], out[3 * l + 1], out[3 * l + 2]));
       valSq += v * v;
@@ -372,6 +457,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     for (int L = 0; L < AdaptiveStats::kLevels; ++L)
       if (byLevel[L]) m_stats->values[size_t(L)].fetch_add(byLevel[L], std::memory_order_relaxed);
     m_stats->texelViews.fetch_add(1, std::memory_order_relaxed);
+    m_stats->samples.fetch_add(used, std::memory_order_relaxed);
     if (edge) m_stats->edgeTexelViews.fetch_add(1, std::memory_order_relaxed);
     if (rays) m_stats->cameraRays.fetch_add(rays, std::memory_order_relaxed);
     m_stats->errorSq.fetch_add(errSq, std::memory_order_relaxed);

@@ -33,7 +33,9 @@ struct AdaptiveSettings {
 /// What the texels took, summed over a run (atomic: kernels run on every thread).
 struct AdaptiveStats {
   static constexpr int kLevels = 6;  // 2×2, 4×4, 8×8, 16×16, 32×32, 64×64
-  std::array<std::atomic<uint64_t>, kLevels> values{};  // (texel, view, light) values by level
+  // (texel, view, light) values by the finest level they reached
+  std::array<std::atomic<uint64_t>, kLevels> values{};
+  std::atomic<uint64_t> samples{0};  // Σ samples the values took
   std::atomic<uint64_t> texelViews{0}, edgeTexelViews{0}, cameraRays{0};
   std::atomic<double> errorSq{0}, valueSq{0};  // Σ estimated error², Σ value² (luminance)
   /// Mean samples per value, the estimated relative RMS error, and the histogram as JSON.

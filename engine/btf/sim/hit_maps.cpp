@@ -79,8 +79,14 @@ void HitMaps::buildEdgeTables(const TileGeometry& geom, const CancelToken* cance
             const uint32_t px = m_prim[x], py = m_prim[y];
             if ((px == kNoHit) != (py == kNoHit)) return true;
             if (px == kNoHit) return false;
-            return geom.triMaterial[px] != geom.triMaterial[py] ||
-                   std::abs(m_depth[x] - m_depth[y]) > step;
+            if (geom.triMaterial[px] != geom.triMaterial[py] ||
+                std::abs(m_depth[x] - m_depth[y]) > step)
+              return true;
+            // A crease (the top of a wall): face normals more than ~25° apart.
+            if (px == py) return false;
+            const Vec3 nx = geom.faceNormal(px), ny = geom.faceNormal(py);
+            const float lx = glm::length(nx), ly = glm::length(ny);
+            return lx > 0 && ly > 0 && std::abs(glm::dot(nx, ny)) < 0.9f * lx * ly;
           };
           for (int r = 0; r < sv; ++r)
             for (int a = 0; a < su; ++a) {

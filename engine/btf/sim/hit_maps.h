@@ -56,9 +56,9 @@ class HitMaps {
   std::vector<float> vmf(int dir) const;
 
   /// Edge tables (adaptive sampling): per direction, a summed-area table of the map samples that
-  /// sit on a discontinuity of the map — a hit next to a miss, two materials, or a depth step of
+  /// sit on a discontinuity of the map — a hit next to a miss, two materials, a depth step of
   /// more than three sample spacings (a silhouette seen from ω; for a light, where its shadows
-  /// begin). 4 bytes per (direction, sample).
+  /// begin) or a crease (face normals more than ~25° apart). 4 bytes per (direction, sample).
   void buildEdgeTables(const TileGeometry& geom, const CancelToken* cancel = nullptr);
   bool hasEdgeTables() const { return !m_edgeSat.empty(); }
   /// Edge samples of direction `dir` in the sample rectangle [a0, a1) × [b0, b1), wrapped

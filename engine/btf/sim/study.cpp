@@ -41,7 +41,8 @@ std::string StudyConfig::label() const {
     s << "pt " << dirs << " spp" << spp << " paths" << paths << " P" << bounces;
     return s.str();
   }
-  s << dirs << " spp" << spp << " " << shadowModeName(shadows) << " P" << bounces;
+  s << dirs << (spp == 0 ? std::string(" adaptive") : " spp" + std::to_string(spp)) << " "
+    << shadowModeName(shadows) << " P" << bounces;
   if (bounces > 1)
     s << " vox" << (voxels ? std::to_string(voxels) : "auto") << " N1=" << gather << " links"
       << links;
@@ -187,7 +188,9 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
     so.method = c.method;
     so.ptPaths = c.paths;
     so.directions = c.dirs;
-    so.spp = c.spp;
+    // spp 0: adaptive sampling (the default); K > 0: uniform K×K. The path tracer is uniform.
+    so.adaptive = c.spp == 0 && c.method != "pt";
+    so.spp = std::max(1, c.spp);
     so.shadows = c.shadows;
     so.seed = o.seed;
     so.network.voxels = c.voxels;

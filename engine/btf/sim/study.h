@@ -16,7 +16,7 @@ namespace btf {
 struct StudyConfig {
   std::string method = "network";  // network | pt (path traced BTF, `paths` per sample)
   std::string dirs = "bonn81";
-  int spp = 1;
+  int spp = 1;  // 0 = adaptive sampling (the simulator's default), K > 0 = uniform K×K
   ShadowMode shadows = ShadowMode::Map;
   int voxels = 0;  // 0 = one per texel
   int gather = 4;

@@ -36,6 +36,10 @@ TEST(Study, OneKnobAtATimeAroundTheBase) {
   EXPECT_EQ(c[1].method, "pt");
   o.grid = true;
   EXPECT_EQ(studyConfigs(o).size(), 16u);
+  // spp 0 is adaptive sampling, named as such.
+  StudyConfig a;
+  a.spp = 0;
+  EXPECT_NE(a.label().find("adaptive"), std::string::npos) << a.label();
 }
 
 TEST(Study, CommandWritesTableCsvAndPlot) {
@@ -62,7 +66,7 @@ TEST(Study, CommandWritesTableCsvAndPlot) {
   EXPECT_EQ(std::count(probes.begin(), probes.end(), '\n'), 1 + 3 * 28);
   EXPECT_EQ(csv.find("nan"), std::string::npos);
   EXPECT_EQ(test::runBtfsim("study " + test::sourceDir() + "/resources/scenes/brick.json -o " +
-                                dir.string() + " --spp 0",
+                                dir.string() + " --spp 65",
                             &out),
             1);
   EXPECT_NE(out.find("--spp"), std::string::npos) << out;
