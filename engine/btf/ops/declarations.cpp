@@ -90,6 +90,9 @@ Opts effectOptions() {
       en("interreflection", "auto", {"auto", "on", "off"}, "inter-reflection: planner or forced"),
       in("bounces", 0, 0, 64, "P: reflections per path (1 = direct only; 0 = from the plan)"),
       fl("epsilon", 0.01, 1e-6, 0.5, "planner: energy fraction below which an order is dropped"),
+      flag("edge_cells",
+           "adaptive sampling: at the 4×4 level also split every cell whose footprint holds a "
+           "geometric or shadow edge (slivers every sample missed; slower)"),
       excl(fl("tolerance", 0.01, 0, 1,
               "adaptive sampling: a value refines while its estimated error exceeds this "
               "fraction of max(value, floor)")),

@@ -101,6 +101,7 @@ SimOptions simOptions(const Scene& scene, const Request& r) {
     o.adaptive = false;
   if (r.given("max_spp")) o.adaptiveSettings.maxK = r.i("max_spp");
   if (r.has("tolerance")) o.adaptiveSettings.tolerance = float(r.f("tolerance"));
+  if (r.has("edge_cells")) o.adaptiveSettings.edgeCells = r.b("edge_cells");
   if (r.has("shadows") && r.s("shadows").find(',') == std::string::npos)
     o.shadows = parseShadowMode(r.s("shadows"));
   if (r.has("seed")) o.seed = uint64_t(r.i("seed"));

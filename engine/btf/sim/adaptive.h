@@ -28,6 +28,9 @@ namespace btf {
 struct AdaptiveSettings {
   int maxK = 8;             // finest level: maxK × maxK samples (a power of two, 2..64)
   float tolerance = 0.01f;  // estimated error per value, relative to max(value, floor)
+  /// At the map's level, also split every cell whose footprint holds an edge of the view's or
+  /// the light's edge table (finds slivers that every map sample missed).
+  bool edgeCells = false;
 };
 
 /// What the texels took, summed over a run (atomic: kernels run on every thread).

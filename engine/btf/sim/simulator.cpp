@@ -195,7 +195,8 @@ BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
                         {"base", 2},
                         {"max", m_opt.adaptiveSettings.maxK},
                         {"map", m_mapSpp},
-                        {"tolerance", m_opt.adaptiveSettings.tolerance}};
+                        {"tolerance", m_opt.adaptiveSettings.tolerance},
+                        {"edge_cells", m_opt.adaptiveSettings.edgeCells}};
   else
     plan["sampling"] = {{"mode", "uniform"}, {"spp", m_opt.spp}};
   if (m_opt.method == "pt") plan["pt_paths_per_sample"] = m_opt.ptPaths;

@@ -43,6 +43,7 @@ SimOptions adaptiveOptions(int maxK, float tolerance, ShadowMode shadows) {
   o.adaptiveSettings.maxK = maxK;
   o.adaptiveSettings.tolerance = tolerance;
   o.shadows = shadows;
+  o.adaptiveSettings.edgeCells = maxK > 8;  // the convergence settings: no sliver missed
   o.plan.interreflection = Toggle::Off;  // direct light only: the analytic value below
   o.progress = false;
   return o;
