@@ -36,8 +36,9 @@ PreviewResult runPreview(const PreviewRequest& r) {
 
 std::string brickWithGrid(const std::filesystem::path& dir) {
   std::string s = readFile(sourceDir() + "/resources/scenes/brick.json");
-  const auto k = s.find("\"bonn81\"");
-  s.replace(k, 8, "\"grid\", \"grid\": [4, 8]");
+  const std::string axes = "\"axis-grid\", \"grid\": [6, 16]";
+  const auto k = s.find(axes);
+  s.replace(k, axes.size(), "\"grid\", \"grid\": [4, 8]");
   std::ofstream(dir / "brick.json") << s;
   return s;
 }
