@@ -166,26 +166,23 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     }
   }
 
-  // Does the texel straddle an edge? Hit and miss, two materials, a crease or a depth step
-  // among the map's samples.
-  bool edge = false, anyMiss = false;
-  const Sample* first = nullptr;
-  for (const Sample& S : map) {
-    if (!S.ok) {
-      anyMiss = true;
-      continue;
+  // Does the texel straddle an edge? Between neighbouring map samples: hit and miss, two
+  // materials, a crease (shading normals more than 25° apart: a smooth curve turns far less
+  // between neighbours a quarter texel apart) or a depth step (off the neighbour's tangent plane
+  // by more than a tenth of a texel).
+  bool edge = false;
+  auto differ = [&](const Sample& A, const Sample& B) {
+    if (A.ok != B.ok) return true;
+    if (!A.ok) return false;
+    return A.s.material != B.s.material || glm::dot(A.s.n, B.s.n) < 0.9f ||
+           std::abs(glm::dot(A.s.ng, B.s.p - A.s.p)) > 0.1f * float(m_texelSize);
+  };
+  for (int b = 0; b < Km && !edge; ++b)
+    for (int a = 0; a < Km && !edge; ++a) {
+      const Sample& S = map[size_t(b) * Km + a];
+      edge = (a + 1 < Km && differ(S, map[size_t(b) * Km + a + 1])) ||
+             (b + 1 < Km && differ(S, map[size_t(b + 1) * Km + a]));
     }
-    if (!first) {
-      first = &S;
-      continue;
-    }
-    const auto& A = first->s;
-    const auto& B = S.s;
-    if (A.material != B.material || glm::dot(A.n, B.n) < 0.9f ||
-        std::abs(glm::dot(A.ng, B.p - A.p)) > 0.1f * float(m_texelSize))
-      edge = true;
-  }
-  edge = edge || (anyMiss && first);
   // An edge just outside the map's samples (a sliver they all missed): the view's edge table
   // over the texel and a guard band of one map sample.
   if (!edge && m_maps.hasEdgeTables())

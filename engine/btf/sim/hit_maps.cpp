@@ -82,9 +82,11 @@ void HitMaps::buildEdgeTables(const TileGeometry& geom, const CancelToken* cance
             if (geom.triMaterial[px] != geom.triMaterial[py] ||
                 std::abs(m_depth[x] - m_depth[y]) > step)
               return true;
-            // A crease (the top of a wall): face normals more than ~25° apart.
+            // A crease (the top of a wall): shading normals more than ~25° apart (those of a
+            // smooth tessellated curve turn far less between neighbouring samples).
             if (px == py) return false;
-            const Vec3 nx = geom.faceNormal(px), ny = geom.faceNormal(py);
+            const Vec3 nx = geom.shadingNormal(px, m_u[x], m_v[x]);
+            const Vec3 ny = geom.shadingNormal(py, m_u[y], m_v[y]);
             const float lx = glm::length(nx), ly = glm::length(ny);
             return lx > 0 && ly > 0 && std::abs(glm::dot(nx, ny)) < 0.9f * lx * ly;
           };
