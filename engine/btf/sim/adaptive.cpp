@@ -211,6 +211,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   // sample.
   auto edgesIn = [&](int d, float x0, float x1, float y0, float y1, float sx, float sy, float zlo,
                      float zhi) {
+    if (!m_maps.hasEdgeTables()) return false;
     const float a0 = (float(i) + x0) * float(Km) - std::max(zlo * sx, zhi * sx) - 1.0f;
     const float a1 = (float(i) + x1) * float(Km) - std::min(zlo * sx, zhi * sx) + 1.0f;
     const float b0 = (float(j) + y0) * float(Km) - std::max(zlo * sy, zhi * sy) - 1.0f;
