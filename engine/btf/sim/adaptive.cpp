@@ -191,8 +191,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   // Shadow boundaries: a light whose hit map (= its shadow map) has a discontinuity inside the
   // footprint of a quadrant of the texel — the quadrant swept along −ωi over the heights of its
   // receivers, widened by a map sample — is flagged: shaded with exact shadow rays (map mode
-  // too: the map places a boundary only within ±½ map sample), and its cells whose own
-  // footprint holds the edge are split.
+  // too: the map places a boundary only within ±½ map sample); with edge_cells its cells whose
+  // own footprint holds the edge split.
   int okCount = 0;
   for (const Sample& S : map) okCount += S.ok;
   // Heights of the receivers of cell (c, r) of a level with K ≤ Km cells per side.
@@ -274,7 +274,6 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     const int nA = int(sc.active.size());
     // 1. Which cells of each active light split.
     sc.split.assign(size_t(nA) * n, 0);
-    sc.next.clear();
     std::vector<int>& keep = sc.keep;
     keep.clear();
     sc.kept.assign(size_t(nA), 0);
@@ -299,14 +298,11 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       if (L == m_maxLevel) continue;
       const float thr = threshold(mean);
       const bool byValue = e > thr;
-      // Edge tables resolve cells down to a map sample: level 0 splits whole (free samples)
-      // on a geometric or shadow edge; at the map's level a flagged light splits the cells
-      // whose footprint holds its shadow edge, and the view's edges split where values differ.
       const bool flaggedL = sc.flagged[size_t(l)] != 0;
       // Level 0 → the map's level is free of camera rays: a geometric edge of the texel or a
       // shadow edge in the light's footprint takes every cell there. With edge_cells, the
       // cells at the map's level whose own footprint holds the edge split too: slivers that
-      // every map sample missed (exact area fractions; ~+60 % time on brick).
+      // every map sample missed (exact area fractions; +50 % time on brick).
       const bool byEdges =
           (L == 0 && (edge || flaggedL)) ||
           (m_settings.edgeCells && L <= m_mapLevel && (flaggedL || (edge && byValue)));

@@ -1,15 +1,17 @@
 // Adaptive integration of a texel's footprint (§2.6's virtual camera, issue 12). A texel's value
-// is the integral of the aBRDF over its footprint on the reference plane; it is estimated on
-// nested, stratified, jittered sample sets — level L has (2^(L+1))² samples, one per stratum, and
-// contains level L−1 — and each light of a (texel, view) stops at the first level whose estimated
-// error is below the tolerance:
-//  - level 0 (2×2) and the hit map's own level (4×4 when the budget allows) cost no ray;
-//  - the geometry of the hit map's samples decides whether the texel straddles an edge (hit and
-//    miss, two materials, a crease, a depth step): then every light goes to the map's level;
-//  - otherwise a light goes up when its level-0 contributions disagree (a shadow edge, a lobe);
-//  - from there a light goes up while the change between two levels, the error estimate of a
-//    stratified estimator, exceeds tolerance × max(value, floor); finer levels trace their own
-//    camera rays, once per (texel, view), shared by every light that needs them.
+// is the integral of the aBRDF over its footprint on the reference plane. At level L the texel is
+// a K×K grid of cells (K = 2^(L+1)), each holding one jittered sample; a cell that splits becomes
+// four cells of level L+1 (the one holding the parent's sample keeps it). Each light of a
+// (texel, view) refines its own cells:
+//  - level 0 (2×2) and the hit map's own level (4×4 when the budget allows) cost no camera ray;
+//  - a geometric edge of the texel (between neighbouring map samples, or in the view's edge
+//    table) or a shadow edge in the light's footprint (its edge table; the light then uses exact
+//    shadow rays) takes the light to the map's level;
+//  - beyond, while the light's error estimate (from neighbouring-cell differences) exceeds
+//    tolerance × max(value, floor), the cells that differ from a neighbour, and their four
+//    neighbours, split; finer cells trace camera rays once per (texel, view), shared by every
+//    light; `edgeCells` also splits the map-level cells whose footprint holds an edge.
+// docs/conventions.md ("Tile and texels") states the rules and thresholds.
 // Sample positions depend on (seed, texel, level, stratum) only — not on the view, the thread or
 // the chunk — so runs are deterministic with any thread count, resume to the same bytes, and the
 // studio's single-pair preview equals the stored value.

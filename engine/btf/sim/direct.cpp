@@ -170,14 +170,9 @@ Rgb DirectIllumination::contribution(const Surface& s, int l, bool exactShadow) 
   const LightInfo& L = m_lights[size_t(l)];
   const float cosN = glm::dot(s.n, L.w);
   if (cosN <= 0 || glm::dot(s.ng, L.w) <= 0) return Rgb(0);
-  float vis;
-  if (m_settings.shadows == ShadowMode::Map && !L.rays && !exactShadow) {
-    vis = shadowMapVisibility(l, s.p, s.ng, s.prim);
-  } else if (m_settings.shadows != ShadowMode::None) {
-    vis = m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f;
-  } else {
-    vis = 1.0f;
-  }
+  const float vis = exactShadow && m_settings.shadows != ShadowMode::None
+                        ? (m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f)
+                        : lightVisibility(l, s.p, s.ng, s.prim);
   if (vis <= 0) return Rgb(0);
   const Rgb f = s.lambert ? s.mat->kdOverPi : evalBrdf(*s.mat, s.frame.toLocal(L.w), s.wo);
   return f * (cosN * L.invCos * vis);
