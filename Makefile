@@ -44,7 +44,7 @@ sanitize: deps
 	  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ctest --output-on-failure -j $(JOBS)
 
 bench: build
-	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json --bounces 1
+	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json --spp 1 --bounces 1
 	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json --spp 2 --bounces 3 --shadows map --repeat 1
 
 clean:
