@@ -5,7 +5,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps build demo test bench clean studio screenshots sanitize
+.PHONY: all deps build demo test bench clean studio screenshots sanitize fuzz tsan
 
 all: build
 
@@ -43,9 +43,31 @@ sanitize: deps
 	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0 \
 	  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ctest --output-on-failure -j $(JOBS)
 
+# libFuzzer targets, one per reader (clang from Debian; docs/reliability.md): builds build-fuzz/
+# (engine + targets, ASan + UBSan + coverage) and runs each target FUZZ_SECONDS seconds on every
+# core. Findings land in build-fuzz/fuzz-findings/TARGET/; a table in build-fuzz/fuzz-summary.md.
+FUZZ_SECONDS ?= 120
+FUZZ_TARGETS ?=
+fuzz:
+	@bash scripts/install-deps.sh fuzz
+	CC=clang-14 CXX=clang++-14 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	  -DBTF_FUZZ=ON -DBTF_BUILD_UI=OFF -DBTF_BUILD_TESTS=OFF
+	cmake --build build-fuzz -j $(JOBS)
+	bash scripts/fuzz.sh build-fuzz $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
+# ThreadSanitizer over the threaded kernels (parallel loops on instrumented std::threads instead
+# of TBB's uninstrumented scheduler, see engine/btf/core/parallel.cpp) and the studio's job queue
+# without GL; suppressions with their reasons in tests/tsan.supp.
+TSAN_TESTS ?= Parallel.*:Direct*.*:Adaptive.*:Network.*:Jobs*.*:RunContext.*:Determinism*.*
+tsan: deps
+	cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DBTF_TSAN=ON
+	cmake --build build-tsan -j $(JOBS) --target engine_tests ui_tests btfsim
+	cd build-tsan && TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1:suppressions=$(CURDIR)/tests/tsan.supp \
+	  bash $(CURDIR)/scripts/tsan-run.sh "$(TSAN_TESTS)"
+
 bench: build
 	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json --spp 1 --bounces 1
 	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json --spp 2 --bounces 3 --shadows map --repeat 1
 
 clean:
-	rm -rf $(BUILD_DIR) build-asan out
+	rm -rf $(BUILD_DIR) build-asan build-fuzz build-tsan out

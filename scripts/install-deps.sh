@@ -6,6 +6,8 @@ PKGS=(cmake ninja-build g++ make pkg-config libglfw3-dev libglm-dev libimgui-dev
   libopenmesh-dev libopenimageio-dev libosd-dev libgtest-dev libbenchmark-dev libeigen3-dev
   libtbb-dev libcli11-dev nlohmann-json3-dev xvfb xauth libgl1-mesa-dri mesa-utils libegl1
   libegl-mesa0 fonts-dejavu-core)
+# `install-deps.sh fuzz`: also clang and its libFuzzer runtime (make fuzz only).
+if [ "${1:-}" = "fuzz" ]; then PKGS+=(clang-14 libclang-rt-14-dev); fi
 missing=()
 for p in "${PKGS[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

@@ -4,6 +4,8 @@
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
 #include <btf/core/error.h>
+#include <btf/core/input_file.h>
+#include <btf/core/json_limits.h>
 #include <btf/core/sysinfo.h>
 #include <btf/io/image_io.h>
 #include <btf/sim/simulator.h>
@@ -14,6 +16,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 namespace btf::ui {
@@ -427,13 +430,12 @@ void App::loadFont() {
 
 int App::run() {
   if (!opt.script.empty()) {
-    std::ifstream f(opt.script);
+    checkInputFile(opt.script, "script", uint64_t(16) << 20, "16 MiB");
+    std::ifstream f(opt.script, std::ios::binary);
     if (!f) throw Error(opt.script + ": cannot open script");
-    try {
-      m_script = nlohmann::json::parse(f);
-    } catch (const nlohmann::json::exception& e) {
-      throw Error(opt.script + ": invalid JSON: " + e.what());
-    }
+    std::stringstream text;
+    text << f.rdbuf();
+    m_script = parseJsonText(text.str(), opt.script);
     if (m_script.is_object() && m_script.contains("actions")) m_script = m_script["actions"];
     if (!m_script.is_array()) throw Error(opt.script + ": expected a list of actions");
   }

@@ -3,6 +3,7 @@
 #include <btf/core/container.h>
 #include <btf/core/error.h>
 #include <btf/core/hash.h>
+#include <btf/core/input_file.h>
 #include <btf/core/json_limits.h>
 #include <fcntl.h>
 #include <unistd.h>
@@ -195,6 +196,7 @@ bool isCompressedFile(const std::string& path) {
 }
 
 CompressedBtf readCompressed(const std::string& path) {
+  checkInputFile(path, "compressed BTF");
   std::ifstream f(path, std::ios::binary);
   if (!f) throw Error(path + ": cannot open");
   f.seekg(0, std::ios::end);
@@ -209,6 +211,7 @@ CompressedBtf readCompressed(const std::string& path) {
   f.read(header.data(), std::streamsize(hlen));
   container::checkHeader(header, pre, path);
   CompressedBtf c;
+  c.source = path;
   nlohmann::json j;
   checkJsonDepth(header, path + " (header)");
   try {

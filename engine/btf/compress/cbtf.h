@@ -30,6 +30,7 @@ struct CArray {
 
 struct CompressedBtf {
   BtfInfo info;        // geometry, directions, provenance of the source (chunking unused)
+  std::string source;  // the file it was read from ("" when built in memory): errors name it
   std::string codec;   // "nmf", "svd", "perview", "lpca"
   std::string colour;  // "rgb" or "ycc"
   std::string paramsJson = "{}";  // codec settings and chosen ranks (JSON object text)

@@ -140,11 +140,17 @@ std::unique_ptr<Encoder> makeEncoder(const CodecSettings& s, const BtfInfo& info
 }
 
 std::unique_ptr<Decoder> makeDecoder(CompressedBtf c) {
-  if (c.codec == "nmf") return makeNmfDecoder(std::move(c));
-  if (c.codec == "svd") return makeSvdDecoder(std::move(c));
-  if (c.codec == "perview") return makePerViewDecoder(std::move(c));
-  if (c.codec == "lpca") return makeLpcaDecoder(std::move(c));
-  throw Error("compressed BTF: unknown codec '" + c.codec + "'");
+  // The decoders check their arrays' shapes against the header; their errors name the file.
+  const std::string where = c.source.empty() ? std::string("compressed BTF") : c.source;
+  try {
+    if (c.codec == "nmf") return makeNmfDecoder(std::move(c));
+    if (c.codec == "svd") return makeSvdDecoder(std::move(c));
+    if (c.codec == "perview") return makePerViewDecoder(std::move(c));
+    if (c.codec == "lpca") return makeLpcaDecoder(std::move(c));
+  } catch (const Error& e) {
+    throw Error(where + ": " + e.what());
+  }
+  throw Error(where + ": unknown codec '" + c.codec + "' (expected nmf, svd, perview or lpca)");
 }
 
 // ------------------------------------------------------------------ Decoder

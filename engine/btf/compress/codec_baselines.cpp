@@ -515,7 +515,13 @@ class LinearDecoder final : public Decoder {
     m_n = m_info.nDirs();
     m_lv = int64_t(m_n) * m_n;
     m_mode = m_c.codec == "svd" ? 0 : m_c.codec == "perview" ? 1 : 2;
-    if (m_mode == 2) m_cluster = &m_c.array("cluster");
+    if (m_mode == 2) {
+      m_cluster = &m_c.array("cluster");
+      if (m_cluster->rows != m_info.texels() || m_cluster->cols != 1)
+        throw Error("compressed BTF (lpca): the cluster array is " +
+                    std::to_string(m_cluster->rows) + " × " + std::to_string(m_cluster->cols) +
+                    ", expected " + std::to_string(m_info.texels()) + " × 1");
+    }
     for (int ch = 0; ch < 3; ++ch) {
       m_b[ch] = &m_c.array(channelArray(ch, "basis"));
       m_k[ch] = &m_c.array(channelArray(ch, "coef"));
@@ -526,8 +532,19 @@ class LinearDecoder final : public Decoder {
           m_k[ch]->cols != expectCols)
         throw Error("compressed BTF (" + m_c.codec + "): channel " + std::to_string(ch) +
                     " arrays have inconsistent dimensions");
+      if (m_mode == 2 && ch > 0 && K != m_clusters)
+        throw Error("compressed BTF (lpca): channels have different cluster counts");
       m_clusters = int(K);
     }
+    // Every texel's cluster, once: an integer within the clusters (a NaN or a fraction in a
+    // damaged file would index outside the bases).
+    if (m_mode == 2)
+      for (int64_t t = 0; t < m_info.texels(); ++t) {
+        const float k = m_cluster->data[size_t(t)];
+        if (!(k >= 0 && k < float(m_clusters) && k == std::floor(k)))
+          throw Error("compressed BTF (lpca): texel " + std::to_string(t) + " names cluster " +
+                      std::to_string(k) + " of " + std::to_string(m_clusters));
+      }
   }
   std::string kind() const override { return m_c.codec; }
 

@@ -3,6 +3,7 @@
 #include <btf/core/hash.h>
 
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 
 namespace btf::container {
@@ -39,6 +40,9 @@ void checkHeader(const std::string& header, const Preamble& p, const std::string
 }
 
 bool hasMagic(const std::string& path, const Magic& magic) {
+  // Only regular files are opened (a fifo would block); the readers then name what is wrong.
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
   std::ifstream f(path, std::ios::binary);
   char m[8] = {};
   f.read(m, 8);

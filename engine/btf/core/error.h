@@ -12,6 +12,14 @@ class Error : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A library's message made fit for one line of ours: the first line, at most 160 characters.
+inline std::string oneLine(std::string s) {
+  const size_t nl = s.find_first_of("\r\n");
+  if (nl != std::string::npos) s.resize(nl);
+  if (s.size() > 160) s = s.substr(0, 157) + "...";
+  return s.empty() ? "no detail" : s;
+}
+
 namespace detail {
 [[noreturn]] void checkFailed(const char* expr, const char* file, int line, const std::string& msg);
 }

@@ -1,7 +1,10 @@
 #include <btf/core/error.h>
 #include <btf/core/json_limits.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <string_view>
 
 namespace btf {
 
@@ -28,6 +31,74 @@ void checkJsonDepth(std::string_view text, const std::string& source, int maxDep
     } else if (ch == ']' || ch == '}') {
       --depth;
     }
+  }
+}
+
+nlohmann::json parseJsonText(const std::string& text, const std::string& source, int maxDepth) {
+  checkJsonDepth(text, source, maxDepth);
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    const size_t at = std::min(text.size(), e.byte > 0 ? size_t(e.byte - 1) : size_t(0));
+    size_t line = 1, col = 1;
+    for (size_t i = 0; i < at; ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        col = 1;
+      } else {
+        ++col;
+      }
+    }
+    const std::string what = e.what();
+    std::string rule = "JSON syntax error";
+    if (what.find("UTF-8") != std::string::npos)
+      rule = "invalid UTF-8 in a JSON string";
+    else if (at >= text.size())
+      rule = "JSON text ends too early";
+    // A short excerpt of the text before the error, printable ASCII only.
+    std::string near;
+    for (size_t i = at >= 24 ? at - 24 : 0; i <= at && i < text.size(); ++i) {
+      const unsigned char ch = static_cast<unsigned char>(text[i]);
+      near += ch >= 32 && ch < 127 ? char(ch) : (ch == '\n' ? ' ' : '?');
+    }
+    throw Error(source + ":" + std::to_string(line) + ":" + std::to_string(col) + ": " + rule +
+                (near.empty() ? "" : " near '" + near + "'"));
+  } catch (const nlohmann::json::out_of_range&) {
+    // The library says which literal but not where: find the first number (outside strings)
+    // that overflows a double.
+    size_t line = 1;
+    bool inString = false, escaped = false;
+    for (size_t i = 0; i < text.size(); ++i) {
+      const char ch = text[i];
+      if (ch == '\n') ++line;
+      if (inString) {
+        if (escaped)
+          escaped = false;
+        else if (ch == '\\')
+          escaped = true;
+        else if (ch == '"')
+          inString = false;
+        continue;
+      }
+      if (ch == '"') {
+        inString = true;
+      } else if ((ch == '-' || (ch >= '0' && ch <= '9')) &&
+                 (i == 0 ||
+                  std::string_view(",:[ \t\r\n").find(text[i - 1]) != std::string::npos)) {
+        size_t j = i + 1;
+        while (j < text.size() &&
+               std::string_view("0123456789.eE+-").find(text[j]) != std::string_view::npos)
+          ++j;
+        const std::string lit = text.substr(i, std::min<size_t>(j - i, 40));
+        if (std::isinf(std::strtod(lit.c_str(), nullptr)))
+          throw Error(source + ":" + std::to_string(line) + ": the number " + lit +
+                      " is beyond the range of a double (about 1.8e308)");
+        i = j - 1;
+      }
+    }
+    throw Error(source + ": a JSON number beyond the range of a double (about 1.8e308)");
+  } catch (const nlohmann::json::exception&) {
+    throw Error(source + ": malformed JSON");
   }
 }
 

@@ -15,6 +15,12 @@ constexpr int kMaxJsonDepth = 64;
 /// (outside strings) nest deeper than `maxDepth`.
 void checkJsonDepth(std::string_view text, const std::string& source, int maxDepth = kMaxJsonDepth);
 
+/// Parses JSON text read from a file: the depth is checked first (checkJsonDepth), and a syntax
+/// error becomes "SOURCE:LINE:COLUMN: JSON syntax error near 'EXCERPT'" (or "invalid UTF-8",
+/// "a number beyond the range of a double") — our words, never the JSON library's.
+nlohmann::json parseJsonText(const std::string& text, const std::string& source,
+                             int maxDepth = kMaxJsonDepth);
+
 /// The fields of a file's JSON header, read by JSON pointer with errors that name the file, the
 /// field and the rule ("F: header field /texels/0: must be an integer in 1..16384") instead of
 /// the JSON library's text.

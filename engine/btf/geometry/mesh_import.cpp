@@ -1,13 +1,18 @@
 // Mesh files through OpenMesh, and subdivision surfaces through OpenSubdiv (Far, CPU).
 #include <btf/core/error.h>
+#include <btf/core/input_file.h>
 #include <btf/geometry/builders.h>
+#include <btf/geometry/mesh_validate.h>
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
 
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <mutex>
 #include <sstream>
@@ -18,11 +23,25 @@ namespace {
 
 using PolyMesh = OpenMesh::PolyMesh_ArrayKernelT<>;
 
-/// Reads a polygon mesh; OpenMesh's complaints (faces with repeated or invalid vertices) are
-/// captured and turned into one clear error, and faces it had to split off because they were
-/// non-manifold are reported too.
-PolyMesh readPoly(const std::string& path) {
-  if (!std::filesystem::exists(path)) throw Error(path + ": mesh file not found");
+/// A mesh file larger than this many bytes per allowed triangle is refused before it is read.
+constexpr uint64_t kMaxMeshFileBytesPerTriangle = 16;
+
+/// Reads a polygon mesh. The file passes our checked pass first (mesh_validate.h: counts, list
+/// lengths, indices, finite vertices, the triangle bound); then OpenMesh reads it, and its
+/// complaints (faces with repeated or invalid vertices) are captured and turned into one clear
+/// error, and faces it had to split off because they were non-manifold are reported too.
+PolyMesh readPoly(const std::string& path, uint64_t maxTriangles) {
+  const uint64_t maxBytes =
+      maxTriangles > UINT64_MAX / kMaxMeshFileBytesPerTriangle
+          ? UINT64_MAX
+          : std::max<uint64_t>(maxTriangles * kMaxMeshFileBytesPerTriangle, 1u << 20);
+  checkInputFile(path, "mesh file", maxBytes, "the memory budget's triangle bound");
+  {
+    std::ifstream in(path, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!in && !in.eof()) throw Error(path + ": cannot read mesh file");
+    validateMeshFile(path, bytes, maxTriangles);
+  }
   PolyMesh mesh;
   mesh.request_face_status();
   mesh.request_vertex_status();
@@ -81,8 +100,8 @@ void checkDegenerate(const TriMesh& m, const std::string& path) {
 
 }  // namespace
 
-TriMesh loadMeshFile(const std::string& path, bool smooth) {
-  PolyMesh pm = readPoly(path);
+TriMesh loadMeshFile(const std::string& path, bool smooth, uint64_t maxTriangles) {
+  PolyMesh pm = readPoly(path, maxTriangles);
   TriMesh m;
   for (auto v : pm.vertices()) {
     const auto p = pm.point(v);
@@ -103,9 +122,12 @@ TriMesh loadMeshFile(const std::string& path, bool smooth) {
 }
 
 TriMesh buildSubdivision(const std::string& cagePath, int levels, const std::string& scheme,
-                         bool sharpCorners) {
+                         bool sharpCorners, uint64_t maxTriangles) {
   using namespace OpenSubdiv;
-  PolyMesh cage = readPoly(cagePath);
+  if (levels < 0 || levels > 10)
+    throw Error(cagePath + ": subdivision levels must be in 0..10 (got " + std::to_string(levels) +
+                ")");
+  PolyMesh cage = readPoly(cagePath, maxTriangles);
   std::vector<int> vertsPerFace, faceVerts;
   for (auto f : cage.faces()) {
     int n = 0;
@@ -121,6 +143,21 @@ TriMesh buildSubdivision(const std::string& cagePath, int levels, const std::str
   if (type == Sdc::SCHEME_LOOP)
     for (int n : vertsPerFace)
       if (n != 3) throw Error(cagePath + ": the loop scheme needs a triangle cage");
+  // The refined surface's size, before refining: loop splits a triangle into 4 per level;
+  // catmark and bilinear split an n-gon into n quads, then each quad into 4 (2 triangles each).
+  {
+    double tris = 0;
+    for (int n : vertsPerFace)
+      tris += type == Sdc::SCHEME_LOOP ? std::ldexp(1.0, 2 * levels)
+              : levels == 0            ? double(n - 2)
+                                       : 2.0 * n * std::ldexp(1.0, 2 * (levels - 1));
+    // The refiner keeps every level: about 4/3 of the last one.
+    if (tris * 4 / 3 > double(maxTriangles))
+      throw Error(cagePath + ": " + std::to_string(levels) + " subdivision level(s) of a " +
+                  std::to_string(vertsPerFace.size()) + "-face cage make " +
+                  std::to_string(uint64_t(tris)) + " triangles, more than the " +
+                  std::to_string(maxTriangles) + " the memory budget allows (lower `levels`)");
+  }
   Far::TopologyDescriptor desc;
   desc.numVertices = int(cage.n_vertices());
   desc.numFaces = int(vertsPerFace.size());

@@ -2,11 +2,18 @@
 // functions (sine, bumps, V-grooves, periodic noise, image) and the swept tube of weaves.
 #include <OpenImageIO/imageio.h>
 #include <btf/core/error.h>
+#include <btf/core/input_file.h>
 #include <btf/core/rng.h>
 #include <btf/geometry/builders.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iterator>
+#include <mutex>
 
 namespace btf {
 
@@ -91,34 +98,112 @@ struct GreyImage {
   }
 };
 
-GreyImage readGrey(const std::string& path) {
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) throw Error(path + ": cannot read height image (" + OIIO::geterror() + ")");
-  const OIIO::ImageSpec& spec = in->spec();
-  GreyImage g;
-  g.w = spec.width;
-  g.h = spec.height;
-  if (g.w <= 0 || g.h <= 0) throw Error(path + ": height image is empty");
-  std::vector<float> all(size_t(g.w) * g.h * spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))
-    throw Error(path + ": cannot read height image (" + in->geterror() + ")");
-  g.px.resize(size_t(g.w) * g.h);
-  // First channel; image row 0 is the top, mapped to y = Ly (v = 1).
-  for (int j = 0; j < g.h; ++j)
-    for (int i = 0; i < g.w; ++i) {
-      const float v = all[(size_t(g.h - 1 - j) * g.w + i) * spec.nchannels];
-      if (!std::isfinite(v)) throw Error(path + ": non-finite pixel value in height image");
-      g.px[size_t(j) * g.w + i] = v;
+/// Points fd 2 at a temporary file for its lifetime (one at a time in the process).
+class StderrCapture {
+ public:
+  StderrCapture() : m_lock(mutex()) {
+    std::fflush(stderr);
+    m_saved = ::dup(2);
+    m_tmp = std::tmpfile();
+    if (m_saved >= 0 && m_tmp) ::dup2(::fileno(m_tmp), 2);
+  }
+  ~StderrCapture() {
+    std::fflush(stderr);
+    if (m_saved >= 0) {
+      ::dup2(m_saved, 2);
+      ::close(m_saved);
     }
+    if (m_tmp) std::fclose(m_tmp);
+  }
+  StderrCapture(const StderrCapture&) = delete;
+  StderrCapture& operator=(const StderrCapture&) = delete;
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  std::lock_guard<std::mutex> m_lock;
+  int m_saved = -1;
+  std::FILE* m_tmp = nullptr;
+};
+
+GreyImage readGrey(const std::string& path, uint64_t maxPixels) {
+  GreyImage g;
+  g.px = readHeightImage(path, maxPixels, &g.w, &g.h);
   return g;
 }
 
 }  // namespace
 
-TriMesh buildPart(const Scene& s, const PartDef& part) {
+std::vector<float> readHeightImage(const std::string& path, uint64_t maxPixels, int* width,
+                                   int* height) {
+  // Compressed formats hold many pixels per byte, so the file's size bounds nothing: the
+  // header's dimensions are checked against maxPixels before any pixel is decoded.
+  checkInputFile(path, "height image");
+  static const char* const kFormats[] = {".png", ".exr", ".hdr",  ".pgm", ".ppm",
+                                         ".pnm", ".tif", ".tiff", ".jpg", ".jpeg"};
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+  if (std::find(std::begin(kFormats), std::end(kFormats), ext) == std::end(kFormats))
+    throw Error(path + ": unsupported height image type '" + ext +
+                "' (PNG, OpenEXR, Radiance HDR, PNM, TIFF or JPEG)");
+  // libpng and libjpeg print their own complaints on stderr before OpenImageIO reports them:
+  // that text is kept off the terminal while the image is read (the error we throw carries
+  // OpenImageIO's message), so a damaged image is one line like every other error.
+  StderrCapture quiet;
+  // The plugin of the extension only: OpenImageIO's open() would try every other format's
+  // reader on a file its own plugin refuses.
+  auto in = OIIO::ImageInput::create(path);
+  OIIO::ImageSpec opened;
+  if (!in || !in->open(path, opened))
+    throw Error(path + ": cannot read height image (" +
+                oneLine(in ? in->geterror() : OIIO::geterror()) + ")");
+  const OIIO::ImageSpec& spec = in->spec();
+  const int64_t w = spec.width, h = spec.height, ch = spec.nchannels;
+  if (w <= 0 || h <= 0 || ch <= 0) throw Error(path + ": height image is empty");
+  if (spec.depth > 1) throw Error(path + ": height image is a volume (depth > 1)");
+  if (w > 65536 || h > 65536 || uint64_t(w) * uint64_t(h) > maxPixels)
+    throw Error(path + ": height image of " + std::to_string(w) + " × " + std::to_string(h) +
+                " pixels is larger than the " + std::to_string(maxPixels) +
+                " pixels the memory budget allows");
+  if (ch > 64) throw Error(path + ": height image has " + std::to_string(ch) + " channels");
+  // One channel decoded: the first (grey, or red of a colour image).
+  std::vector<float> all(size_t(w) * size_t(h));
+  if (!in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, all.data()))
+    throw Error(path + ": cannot read height image (" + oneLine(in->geterror()) + ")");
+  std::vector<float> px(all.size());
+  // Image row 0 is the top, mapped to y = Ly (v = 1).
+  for (int64_t j = 0; j < h; ++j)
+    for (int64_t i = 0; i < w; ++i) {
+      const float v = all[size_t((h - 1 - j) * w + i)];
+      if (!std::isfinite(v)) throw Error(path + ": non-finite pixel value in height image");
+      px[size_t(j * w + i)] = v;
+    }
+  *width = int(w);
+  *height = int(h);
+  return px;
+}
+
+TriMesh buildPart(const Scene& s, const PartDef& part, uint64_t maxTriangles) {
   const ParamSet& p = part.params;
   const std::string& t = part.type;
   const double Lx = s.Lx, Ly = s.Ly;
+  // The declared size of the part, checked before anything is built.
+  auto bound = [&](uint64_t tris, const std::string& from) {
+    if (tris > maxTriangles)
+      throw Error("its " + from + " make " + std::to_string(tris) + " triangles, more than the " +
+                  std::to_string(maxTriangles) + " the memory budget allows");
+  };
+  auto res2 = [&](const char* key) {
+    const auto r = p.i2(key);
+    return 2 * uint64_t(std::max(r[0], 0)) * uint64_t(std::max(r[1], 0));
+  };
+  if (t == "sine" || t == "bumps" || t == "noise") bound(res2("resolution"), "resolution");
+  if (t == "image") bound(res2("resolution"), "resolution");
+  if (t == "vgrooves") bound(4 * uint64_t(p.i("count")) * uint64_t(p.i("subdivisions")), "count");
+  if (t == "sphere") bound(uint64_t(p.i("segments")) * uint64_t(p.i("segments")), "segments");
+  if (t == "torus" || t == "tube") bound(res2("segments"), "segments");
   if (t == "plane") {
     const float z = float(p.f("height"));
     TriMesh m;
@@ -187,10 +272,11 @@ TriMesh buildPart(const Scene& s, const PartDef& part) {
   }
   if (t == "image") {
     const std::string path = resolvePath(s, p.s("path")).string();
-    GreyImage g = readGrey(path);
+    GreyImage g = readGrey(path, std::max<uint64_t>(maxTriangles / 2, 4));
     auto res = p.i2("resolution");
     if (res[0] == 0) res[0] = g.w;
     if (res[1] == 0) res[1] = g.h;
+    bound(2 * uint64_t(res[0]) * uint64_t(res[1]), "image's resolution");
     const double H = p.f("height"), base = p.f("base");
     return buildHeightField(
         Lx, Ly, res[0], res[1],
@@ -210,9 +296,11 @@ TriMesh buildPart(const Scene& s, const PartDef& part) {
                       seg[0], seg[1]);
   }
   if (t == "tube") return buildTube(s, p);
-  if (t == "mesh") return loadMeshFile(resolvePath(s, p.s("path")).string(), p.b("smooth"));
+  if (t == "mesh")
+    return loadMeshFile(resolvePath(s, p.s("path")).string(), p.b("smooth"), maxTriangles);
   if (t == "subdiv")
-    return buildSubdivision(resolvePath(s, p.s("path")).string(), p.i("levels"), p.s("scheme"));
+    return buildSubdivision(resolvePath(s, p.s("path")).string(), p.i("levels"), p.s("scheme"),
+                            false, maxTriangles);
   throw Error("part '" + part.name + "': unknown type '" + t + "'");
 }
 

@@ -1,10 +1,18 @@
 #include <btf/core/error.h>
+#include <btf/core/sysinfo.h>
 #include <btf/geometry/builders.h>
 #include <btf/geometry/tile_builder.h>
 
+#include <algorithm>
+
 namespace btf {
 
-TileGeometry buildTileGeometry(const Scene& scene) {
+uint64_t maxTileTriangles(uint64_t memoryBudget) {
+  return std::max<uint64_t>(memoryBudget / kBytesPerTileTriangle, 1024);
+}
+
+TileGeometry buildTileGeometry(const Scene& scene, uint64_t memoryBudget) {
+  const uint64_t limit = maxTileTriangles(memoryBudget);
   TileGeometry g;
   g.Lx = scene.Lx;
   g.Ly = scene.Ly;
@@ -16,7 +24,9 @@ TileGeometry buildTileGeometry(const Scene& scene) {
         scene.source + ": parts[" + std::to_string(pi) + "] ('" + part.name + "')";
     TriMesh m;
     try {
-      m = buildPart(scene, part);
+      // What is left of the budget once the parts before this one are in.
+      const uint64_t used = uint64_t(g.mesh.tri.size());
+      m = buildPart(scene, part, used < limit ? limit - used : 0);
     } catch (const Error& e) {
       throw Error(where + ": " + e.what());
     }
@@ -29,12 +39,13 @@ TileGeometry buildTileGeometry(const Scene& scene) {
     // the triangle count (about 200 bytes a triangle with the periodic copies in the BVH).
     const uint64_t copies = uint64_t(cnt[0]) * uint64_t(cnt[1]);
     const uint64_t total = uint64_t(g.mesh.tri.size()) + copies * uint64_t(m.tri.size());
-    if (total > kMaxTileTriangles)
+    if (total > limit)
       throw Error(where + ": " + std::to_string(copies) + " cop" + (copies == 1 ? "y" : "ies") +
                   " of " + std::to_string(m.tri.size()) + " triangles make the tile " +
-                  std::to_string(total) + " triangles, above the limit of " +
-                  std::to_string(kMaxTileTriangles) +
-                  " (lower the array count or the part's resolution)");
+                  std::to_string(total) + " triangles, above the " + std::to_string(limit) + " a " +
+                  formatBytes(double(memoryBudget)) +
+                  " memory budget allows (lower the array count or the part's resolution, or "
+                  "raise --memory-budget)");
     Vec2 sp = part.array.v2("spacing");
     if (sp.x == 0) sp.x = float(scene.Lx / cnt[0]);
     if (sp.y == 0) sp.y = float(scene.Ly / cnt[1]);

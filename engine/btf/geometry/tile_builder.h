@@ -7,12 +7,19 @@
 
 namespace btf {
 
-/// The most triangles a tile may have (before the tracer's periodic copies): ~4 GiB of tracer,
-/// maps and network at worst.
-constexpr uint64_t kMaxTileTriangles = 20'000'000;
+/// What one tile triangle costs at worst, in bytes: the tracer's BVH with the periodic copies,
+/// the hit maps' ids and the network's points. The memory budget divided by this bounds the
+/// triangle count of a tile.
+constexpr uint64_t kBytesPerTileTriangle = 200;
+/// The budget of runs that name none (the simulator's default `--memory-budget`).
+constexpr uint64_t kDefaultMemoryBudget = uint64_t(4) << 30;
+/// The most triangles a tile may have within `memoryBudget` bytes (4 GiB: 21.5 M).
+uint64_t maxTileTriangles(uint64_t memoryBudget);
 
 /// Throws btf::Error naming the part when a part produces no triangles or non-finite values, or
-/// when its array would take the tile past kMaxTileTriangles (checked before copying).
-TileGeometry buildTileGeometry(const Scene& scene);
+/// when a part or its array would take the tile past maxTileTriangles(memoryBudget) — checked
+/// before the part is built (from its declared resolution, or from its file's counts) and before
+/// any copy is made.
+TileGeometry buildTileGeometry(const Scene& scene, uint64_t memoryBudget = kDefaultMemoryBudget);
 
 }  // namespace btf

@@ -1,6 +1,7 @@
 // Use cases of the simulator: simulate (into a store, or streamed into a codec), plan, bench and
 // brdf. The only place where the simulator's chunks meet an encoder and a writer.
 #include <btf/compress/compress.h>
+#include <btf/core/input_file.h>
 #include <btf/core/sysinfo.h>
 #include <btf/ops/internal.h>
 #include <btf/scene/scene.h>
@@ -38,9 +39,9 @@ std::string planText(const EffectPlan& p) {
 // "adaptive 2x2..8x8" or "uniform 4x4".
 std::string samplingName(const SimulationJob& job) {
   const SimOptions& o = job.options();
-  return job.adaptive() ? format("adaptive 2x2..%dx%d", o.adaptiveSettings.maxK,
-                                 o.adaptiveSettings.maxK)
-                        : format("uniform %dx%d", o.spp, o.spp);
+  return job.adaptive()
+             ? format("adaptive 2x2..%dx%d", o.adaptiveSettings.maxK, o.adaptiveSettings.maxK)
+             : format("uniform %dx%d", o.spp, o.spp);
 }
 
 // The samples the texels took and the run's own error estimate (adaptive runs).
@@ -192,8 +193,8 @@ void simulate(const Call& c) {
   const EffectPlan& pl = job.plan();
   std::string t =
       format("wrote %s (%s)\n", output.c_str(), formatBytes(double(sr.outputBytes)).c_str());
-  t += format("  %d x %d texels, %d directions (%s), sampling %s, shadows %s, %d thread(s)\n",
-              o.nu, o.nv, job.directions().size(), job.directions().name().c_str(),
+  t += format("  %d x %d texels, %d directions (%s), sampling %s, shadows %s, %d thread(s)\n", o.nu,
+              o.nv, job.directions().size(), job.directions().name().c_str(),
               samplingName(job).c_str(),
               o.method == "pt" ? "exact (path traced)" : shadowModeName(o.shadows), est.threads);
   t += samplingText(sr);
@@ -349,38 +350,23 @@ namespace {
 
 std::vector<DirectionPair> readPairs(const Request& r, std::vector<std::array<double, 4>>* deg) {
   std::vector<DirectionPair> pairs;
-  auto add = [&](const std::string& text, const std::string& where) {
-    std::array<double, 4> v{};
-    std::string t = text;
-    std::replace(t.begin(), t.end(), ',', ' ');
-    std::istringstream in(t);
-    std::string rest;
-    if (!(in >> v[0] >> v[1] >> v[2] >> v[3]) || (in >> rest))
-      throw Error(where + ": expected θi,φi,θo,φo in degrees, got '" + text + "'");
-    try {
-      pairs.push_back(pairFromDegrees(v[0], v[1], v[2], v[3]));
-    } catch (const Error& e) {
-      throw Error(where + ": " + e.what());
-    }
-    deg->push_back(v);
-  };
   std::stringstream list(r.s("pair"));
   std::string item;
   while (std::getline(list, item, ';'))
-    if (!item.empty()) add(item, "--pair");
+    if (!item.empty()) {
+      std::array<double, 4> v;
+      pairs.push_back(parsePairText(item, "--pair", &v));
+      deg->push_back(v);
+    }
   const std::string& file = r.s("pairs");
   if (!file.empty()) {
-    std::ifstream f(file);
+    checkInputFile(file, "pairs file", uint64_t(64) << 20, "64 MiB");
+    std::ifstream f(file, std::ios::binary);
     if (!f) throw Error(file + ": cannot open pairs file");
-    std::string line;
-    int n = 0;
-    while (std::getline(f, line)) {
-      ++n;
-      const auto first = line.find_first_not_of(" \t\r");
-      if (first == std::string::npos || line[first] == '#') continue;
-      if (std::isalpha(static_cast<unsigned char>(line[first])) && n == 1) continue;  // header
-      add(line, file + ":" + std::to_string(n));
-    }
+    std::stringstream ss;
+    ss << f.rdbuf();
+    const auto more = parsePairsFile(ss.str(), file, deg);
+    pairs.insert(pairs.end(), more.begin(), more.end());
   }
   if (pairs.empty()) throw Error("no direction pairs: give --pair θi,φi,θo,φo or --pairs FILE.csv");
   return pairs;

@@ -3,6 +3,7 @@
 #pragma once
 #include <btf/scene/params.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -48,6 +49,8 @@ struct Scene {
 /// relative paths. Throws btf::Error naming source, line (for syntax) or JSON path, and rule.
 Scene parseScene(const std::string& text, const std::string& source,
                  const std::filesystem::path& baseDir);
+/// Scene files larger than this are refused before they are read.
+constexpr uint64_t kMaxSceneFileBytes = uint64_t(64) << 20;
 Scene loadScene(const std::filesystem::path& path);
 /// Canonical JSON of the scene, every parameter written (defaults included).
 std::string sceneToJson(const Scene& scene);

@@ -1,4 +1,5 @@
 #include <btf/core/error.h>
+#include <btf/core/input_file.h>
 #include <btf/core/json_limits.h>
 #include <btf/scene/scene.h>
 
@@ -154,27 +155,12 @@ void writeParams(json& out, const TypeDecl& decl, const ParamSet& s) {
   for (const auto& p : decl.params) out[p.name] = valueToJson(p, s.at(p.name));
 }
 
-size_t lineOf(const std::string& text, size_t byte) {
-  size_t line = 1;
-  for (size_t i = 0; i < byte && i < text.size(); ++i) line += text[i] == '\n';
-  return line;
-}
-
 }  // namespace
 
 Scene parseScene(const std::string& text, const std::string& source,
                  const std::filesystem::path& baseDir) {
   Ctx c{source};
-  json root;
-  checkJsonDepth(text, source);
-  try {
-    root = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw Error(source + ":" + std::to_string(lineOf(text, e.byte > 0 ? e.byte - 1 : 0)) +
-                ": JSON syntax error: " + e.what());
-  } catch (const json::exception& e) {  // e.g. a number literal that overflows a double
-    throw Error(source + ": JSON error: " + e.what());
-  }
+  const json root = parseJsonText(text, source);
   if (!root.is_object()) c.fail("", "the scene must be a JSON object");
   Scene s;
   s.source = source;
@@ -255,6 +241,7 @@ Scene parseScene(const std::string& text, const std::string& source,
 }
 
 Scene loadScene(const std::filesystem::path& path) {
+  checkInputFile(path.string(), "scene file", kMaxSceneFileBytes, "64 MiB");
   std::ifstream f(path, std::ios::binary);
   if (!f) throw Error(path.string() + ": cannot open scene file");
   std::stringstream ss;

@@ -4,8 +4,11 @@
 #include <btf/sim/hit_maps.h>
 #include <btf/sim/shading.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <sstream>
 
 namespace btf {
 
@@ -22,6 +25,47 @@ DirectionPair pairFromDegrees(double ti, double pi, double to, double po) {
   for (double p : {pi, po})
     if (!std::isfinite(p)) throw Error("φ must be a finite angle in degrees");
   return {sphericalDir(deg2rad(ti), deg2rad(pi)), sphericalDir(deg2rad(to), deg2rad(po))};
+}
+
+DirectionPair parsePairText(const std::string& text, const std::string& where,
+                            std::array<double, 4>* degrees) {
+  std::array<double, 4> v{};
+  std::string t = text.substr(0, 4096);
+  std::replace(t.begin(), t.end(), ',', ' ');
+  std::istringstream in(t);
+  std::string rest;
+  if (text.size() > 4096 || !(in >> v[0] >> v[1] >> v[2] >> v[3]) || (in >> rest))
+    throw Error(where + ": expected θi,φi,θo,φo in degrees, got '" + text.substr(0, 80) +
+                (text.size() > 80 ? "...'" : "'"));
+  DirectionPair p;
+  try {
+    p = pairFromDegrees(v[0], v[1], v[2], v[3]);
+  } catch (const Error& e) {
+    throw Error(where + ": " + e.what());
+  }
+  if (degrees) *degrees = v;
+  return p;
+}
+
+std::vector<DirectionPair> parsePairsFile(const std::string& text, const std::string& source,
+                                          std::vector<std::array<double, 4>>* degrees) {
+  std::vector<DirectionPair> pairs;
+  std::istringstream f(text);
+  std::string line;
+  int n = 0;
+  while (std::getline(f, line)) {
+    ++n;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    if (std::isalpha(static_cast<unsigned char>(line[first])) && n == 1) continue;  // header
+    if (pairs.size() == kMaxPairs)
+      throw Error(source + ":" + std::to_string(n) + ": more than " + std::to_string(kMaxPairs) +
+                  " pairs");
+    std::array<double, 4> v;
+    pairs.push_back(parsePairText(line, source + ":" + std::to_string(n), &v));
+    if (degrees) degrees->push_back(v);
+  }
+  return pairs;
 }
 
 DVec3 tilePosition(uint64_t seed, int a, int row, int n, double Lx, double Ly, uint64_t salt) {

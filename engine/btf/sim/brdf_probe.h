@@ -6,6 +6,8 @@
 #include <btf/scene/material.h>
 #include <btf/trace/periodic_tracer.h>
 
+#include <array>
+#include <string>
 #include <vector>
 
 namespace btf {
@@ -22,6 +24,16 @@ constexpr double kMaxProbeThetaDeg = 89.99;
 /// Pair from angles in degrees; throws btf::Error for θ outside [0, kMaxProbeThetaDeg] or
 /// non-finite values, naming the limit.
 DirectionPair pairFromDegrees(double thetaI, double phiI, double thetaO, double phiO);
+
+/// One pair from its text "θi,φi,θo,φo" (commas or spaces, degrees): btf::Error "WHERE: …".
+DirectionPair parsePairText(const std::string& text, const std::string& where,
+                            std::array<double, 4>* degrees = nullptr);
+/// The pairs of a pairs file's text (docs/cli.md, `brdf --pairs`): one "θi,φi,θo,φo" a line,
+/// blank lines and # comments skipped, an optional header line first; at most kMaxPairs.
+/// Errors name SOURCE:LINE.
+constexpr size_t kMaxPairs = 1u << 20;
+std::vector<DirectionPair> parsePairsFile(const std::string& text, const std::string& source,
+                                          std::vector<std::array<double, 4>>* degrees = nullptr);
 
 /// Position on the reference plane of cell (a, row) of an n×n grid over the tile, jittered inside
 /// its cell by a counter-based hash of (seed, a, row, salt): the positions of every tile-averaged

@@ -69,7 +69,7 @@ SimulationJob::SimulationJob(const Scene& scene, SimOptions options)
     throw Error("shadow mode 'none' is the planner's choice: use --self-shadowing off");
   enableFlushToZeroOnWorkers();
   m_dirs = DirectionSet::fromName(m_opt.directions);
-  m_geom = buildTileGeometry(m_scene);
+  m_geom = buildTileGeometry(m_scene, m_opt.memoryBudget);
   m_tracer = std::make_unique<PeriodicTracer>(m_geom);
   m_materials = compileMaterials(m_scene);
   m_adaptive = m_opt.adaptive && m_opt.method != "pt";

@@ -1,7 +1,10 @@
 #include <btf/core/container.h>
 #include <btf/core/error.h>
 #include <btf/core/hash.h>
+#include <btf/core/input_file.h>
 #include <btf/core/json_limits.h>
+#include <btf/core/math.h>
+#include <btf/directions/direction_set.h>
 #include <btf/store/btf_store.h>
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -89,9 +92,27 @@ BtfInfo infoFromJson(const std::string& text, const std::string& file) {
   const auto& dirs = h.at("/directions/theta_phi_deg");
   if (!dirs.is_array() || dirs.empty() || dirs.size() > 65536)
     h.fail("/directions/theta_phi_deg", "must be a list of 1..65536 (θ, φ) pairs");
+  // The angles are those of the named set, direction by direction (within 1e-6°): decoders
+  // interpolate with the set, exports write the angles, and the two must agree.
+  DirectionSet set;
+  try {
+    set = DirectionSet::fromName(i.directionSet);
+  } catch (const Error& e) {
+    h.fail("/directions/set", e.what());
+  }
+  if (size_t(set.size()) != dirs.size())
+    h.fail("/directions/theta_phi_deg", "lists " + std::to_string(dirs.size()) +
+                                            " directions; the set '" + i.directionSet + "' has " +
+                                            std::to_string(set.size()));
   for (size_t k = 0; k < dirs.size(); ++k) {
     const std::string p = "/directions/theta_phi_deg/" + std::to_string(k);
-    i.dirsDeg.push_back({h.number(p + "/0"), h.number(p + "/1")});
+    const double t = h.number(p + "/0"), ph = h.number(p + "/1");
+    const Direction& d = set[int(k)];
+    double dphi = std::fmod(std::abs(ph - rad2deg(d.phi)), 360.0);
+    dphi = std::min(dphi, 360.0 - dphi);
+    if (!(std::abs(t - rad2deg(d.theta)) <= 1e-6) || !(dphi <= 1e-6 || d.theta == 0))
+      h.fail(p, "is not direction " + std::to_string(k) + " of the set '" + i.directionSet + "'");
+    i.dirsDeg.push_back({t, ph});
   }
   i.chunkTexels = int(h.integer("/chunk_texels", 1, 1 << 30));  // may exceed the texels
   i.spp = int(h.integer("/settings/spp", 1, 64));
@@ -257,6 +278,7 @@ void BtfWriter::finish() {
 // ---------------------------------------------------------------- reader
 
 BtfReader::BtfReader(const std::string& path) : m_path(path) {
+  checkInputFile(path, "BTF");
   m_fd = ::open(path.c_str(), O_RDONLY);
   if (m_fd < 0) throw Error(sysError(path, "cannot open BTF"));
   struct stat st;

@@ -24,7 +24,7 @@ TEST(Btfsim, BadArgumentsAreOneLineErrorsWithNonzeroExit) {
     std::string args, expect;
   } cases[] = {
       {"simulate " + (dir / "broken.json").string() + " -o x.btf -q",
-       "broken.json:2: JSON syntax error"},
+       "broken.json:2:12: JSON syntax error near"},
       {"simulate " + scenePath("brick") + " -o x.btf -q --dirs bonn80",
        "unknown direction set 'bonn80'"},
       {"simulate " + scenePath("brick") + " -o x.btf -q --texels 0", "invalid --texels '0'"},
