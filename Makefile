@@ -56,14 +56,16 @@ fuzz:
 	bash scripts/fuzz.sh build-fuzz $(FUZZ_SECONDS) $(FUZZ_TARGETS)
 
 # ThreadSanitizer over the threaded kernels (parallel loops on instrumented std::threads instead
-# of TBB's uninstrumented scheduler, see engine/btf/core/parallel.cpp) and the studio's job queue
-# without GL; suppressions with their reasons in tests/tsan.supp.
-TSAN_TESTS ?= Parallel.*:Direct*.*:Adaptive.*:Network.*:Jobs*.*:RunContext.*:Determinism*.*
+# of TBB's uninstrumented scheduler, see engine/btf/core/parallel.cpp), the studio's job queue and
+# preview thread (no GL), and the btfsim runs the CLI tests start. Suppressions with their
+# reasons: tests/tsan.supp. Not part of `make test` (a full rebuild, tests ~10x slower).
+TSAN_ENGINE_TESTS ?= Adaptive.*:Direct.*:Network.*:PathTracer.*:Codecs.*:Energy.*:Study.*:BtfsimCompress.*:Integrity.*
+TSAN_UI_TESTS ?= Jobs.*:Preview.*:JobRequests.*
 tsan: deps
 	cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DBTF_TSAN=ON
-	cmake --build build-tsan -j $(JOBS) --target engine_tests ui_tests btfsim
-	cd build-tsan && TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1:suppressions=$(CURDIR)/tests/tsan.supp \
-	  bash $(CURDIR)/scripts/tsan-run.sh "$(TSAN_TESTS)"
+	cmake --build build-tsan -j $(JOBS) --target engine_tests ui_tests btfsim btfstudio
+	cd build-tsan && export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$(CURDIR)/tests/tsan.supp" && \
+	  tests/engine_tests --gtest_filter='$(TSAN_ENGINE_TESTS)' && tests/ui_tests --gtest_filter='$(TSAN_UI_TESTS)'
 
 bench: build
 	$(BUILD_DIR)/app/btfsim bench resources/scenes/brick.json --spp 1 --bounces 1

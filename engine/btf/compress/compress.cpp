@@ -1,6 +1,7 @@
 #include "compress.h"
 
 #include <btf/core/error.h>
+#include <btf/core/output_lock.h>
 #include <btf/core/progress.h>
 #include <btf/core/run_context.h>
 #include <btf/core/sysinfo.h>
@@ -162,7 +163,7 @@ ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, 
 }
 
 void writeErrorMaps(const ErrorReport& r, const std::string& dir) {
-  std::filesystem::create_directories(dir);
+  makeFolder(dir);
   auto write = [&](const std::string& name, int w, int h, const std::vector<float>& v) {
     std::vector<float> rgb(v.size() * 3);
     float mx = 0;

@@ -1,6 +1,7 @@
 #include "export.h"
 
 #include <btf/core/error.h>
+#include <btf/core/output_lock.h>
 #include <btf/core/progress.h>
 #include <btf/core/run_context.h>
 #include <btf/directions/direction_set.h>
@@ -76,7 +77,7 @@ int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
     blocksL.push_back(b);
     blocksV.push_back(angleBlock("tv", "pv", a[0], a[1]));
   }
-  std::filesystem::create_directories(dir);
+  makeFolder(dir);
   const int64_t T = info.texels();
   const size_t lv = size_t(n) * n;
   // Views in blocks so the decoded slab stays under ~512 MiB.
@@ -99,7 +100,7 @@ int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
     for (int v = v0; v < v1; ++v) {
       throwIfCancelled(cancel, "export ubo2003");
       const std::string sub = dir + "/" + blocksV[size_t(v)];
-      std::filesystem::create_directories(sub);
+      makeFolder(sub);
       for (int l = 0; l < n; ++l) {
         std::vector<float> img(size_t(T) * 3);
         for (int64_t t = 0; t < T; ++t)

@@ -29,6 +29,14 @@ void checkOutputPath(const std::string& path, bool folder) {
   if (fs::is_regular_file(s) && folder) throw Error(path + ": is a file; this output is a folder");
 }
 
+void makeFolder(const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw Error(dir + ": cannot create the folder (" +
+                (ec ? ec.message() : std::string("a file is in the way")) + ")");
+}
+
 OutputLock::OutputLock(const std::string& path) : m_partial(path + ".partial") {
   const fs::path dir = fs::path(m_partial).parent_path();
   std::error_code ec;

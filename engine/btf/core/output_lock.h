@@ -12,6 +12,9 @@ namespace btf {
 /// `folder` is false), not a regular file or folder, or a symbolic link.
 void checkOutputPath(const std::string& path, bool folder);
 
+/// Creates `dir` and its parents; throws btf::Error "DIR: cannot create the folder (REASON)".
+void makeFolder(const std::string& dir);
+
 class OutputLock {
  public:
   /// Locks PATH.partial (created when missing). Throws btf::Error "PATH: another run is writing

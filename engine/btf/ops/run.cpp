@@ -184,7 +184,15 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
   if (!out.empty()) {
     checkOutputPath(out, folderOut);
     if (!folderOut) lock = std::make_unique<OutputLock>(out);
+    // A folder output is made now, so a folder that cannot be written is refused before work.
+    if (folderOut) makeFolder(out);
   }
+  // A failed run leaves no output it began (an export's folder); a simulation keeps its
+  // .partial for --resume.
+  auto cleanUp = [&] {
+    std::error_code ec;
+    if (!out.empty() && !outExisted) fs::remove_all(out, ec);
+  };
   try {
     withThreads(ctx.threads, [&] {
       const std::string& n = r.command();
@@ -207,11 +215,18 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
       if (!outExisted) fs::remove_all(out, ec);
     }
     throw;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // The standard library's text ("filesystem error: cannot create directories: …") in ours.
+    cleanUp();
+    throw Error((e.path1().empty() ? r.command() : e.path1().string()) + ": " +
+                e.code().message());
+  } catch (const std::bad_alloc&) {
+    cleanUp();
+    throw Error(r.command() +
+                ": out of memory: this machine could not allocate what the run needs (lower its "
+                "size, or --memory-budget so it is refused with the figures before it starts)");
   } catch (...) {
-    // A failed run leaves no output it began (an export's folder); a simulation keeps its
-    // .partial for --resume.
-    std::error_code ec;
-    if (!out.empty() && !outExisted) fs::remove_all(out, ec);
+    cleanUp();
     throw;
   }
   rep.json["request"] = nlohmann::ordered_json::parse(r.toJson())["options"];

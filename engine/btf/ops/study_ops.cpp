@@ -1,6 +1,7 @@
 // The accuracy-vs-time study: the simulator's knobs against the path tracer and, with --codecs,
 // the compression knobs on the base configuration's BTF.
 #include <btf/compress/compress.h>
+#include <btf/core/output_lock.h>
 #include <btf/core/sysinfo.h>
 #include <btf/ops/internal.h>
 #include <btf/scene/scene.h>
@@ -172,7 +173,7 @@ void study(const Call& c) {
              "probe pair",
              scene.name.c_str(), configs.size(), o.nu, o.nv, o.referenceSamples));
   const std::string& dir = r.s("output");
-  std::filesystem::create_directories(dir);
+  makeFolder(dir);
   const Study st = runStudy(scene, o);
   writeStudy(st, dir);
   std::string t = format("%-52s %9s %8s %8s %8s %7s\n", "configuration", "time", "interp.",

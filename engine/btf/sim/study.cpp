@@ -1,4 +1,5 @@
 #include <btf/core/error.h>
+#include <btf/core/output_lock.h>
 #include <btf/core/progress.h>
 #include <btf/core/run_context.h>
 #include <btf/core/sysinfo.h>
@@ -306,7 +307,7 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
 }
 
 void writeStudy(const Study& s, const std::string& dir) {
-  std::filesystem::create_directories(dir);
+  makeFolder(dir);
   std::ostringstream csv;
   csv << "config,dirs,spp,shadows,bounces,voxels,gather,links,seconds,precompute_seconds,"
          "render_seconds,network_points,probe_rel_rmse,set_rel_rmse,probe_max_rel,image_rel_rmse,"

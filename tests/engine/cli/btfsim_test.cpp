@@ -34,7 +34,7 @@ TEST(Btfsim, BadArgumentsAreOneLineErrorsWithNonzeroExit) {
       {"simulate " + scenePath("brick") + " -o x.btf -q --bias nan",
        "--bias: expected a finite number, got 'nan'"},
       {"simulate " + scenePath("brick") + " -o x.btf -q --memory-budget 10Q", "unknown unit 'Q'"},
-      {"simulate missing.json -o x.btf", "missing.json: cannot open scene file"},
+      {"simulate missing.json -o x.btf", "missing.json: scene file not found"},
       {"simulate " + scenePath("brick") +
            " -o x.btf -q --texels 64 --dirs 16x32 --memory-budget 100M",
        "refusing to start: memory budget"},

@@ -74,7 +74,7 @@ TEST(Builders, GreyImageBecomesAHeightField) {
     }
     return std::string();
   }();
-  EXPECT_NE(e.find("nope.png: cannot read height image"), std::string::npos) << e;
+  EXPECT_NE(e.find("nope.png: height image not found"), std::string::npos) << e;
 }
 
 TEST(Builders, SubdivisionRefinesTheCageInsideItsHull) {

@@ -270,7 +270,7 @@ TEST(HostileInput, GeometryOutOfBoundsIsRefusedBeforeWorkNamingThePart) {
     std::string scene, expect;
   } cases[] = {
       {scene("inf.json", "[1, 1]", R"({"type": "mesh", "material": "m", "path": "inf.obj"})"),
-       "inf.obj: "},  // OpenMesh's OBJ reader drops the vertex; other formats reach our check
+       "inf.obj:1: malformed OBJ: vertex 1 has a non-finite coordinate"},
       {scene("array.json", "[1, 1]",
              R"({"type": "sphere", "material": "m", "radius": 0.001, "segments": 256,
                  "array": {"count": [1024, 1024]}})"),
@@ -286,6 +286,87 @@ TEST(HostileInput, GeometryOutOfBoundsIsRefusedBeforeWorkNamingThePart) {
     EXPECT_EQ(test::runBtfsim("plan " + c.scene, &out), 1) << out;
     EXPECT_EQ(out.rfind("btfsim: error: ", 0), 0u) << out;
     EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;  // one line, no library text
+    EXPECT_NE(out.find(c.expect), std::string::npos) << out;
+  }
+}
+
+}  // namespace
+}  // namespace btf
+
+namespace btf {
+namespace {
+
+TEST(HostileInput, OutputsThatCannotBeWrittenAreRefusedBeforeWork) {
+  const auto dir = test::tempDir("hostile_outputs");
+  const std::string d = dir.string();
+  std::ofstream(dir / "file.txt") << "not a folder\n";
+  fs::create_directories(dir / "folder");
+  // A run big enough that doing any work before the refusal would be seen (minutes, not ms).
+  const std::string big = "simulate " + brick() + " --texels 512 --dirs 16x32 -o ";
+  const std::string raw = d + "/b.btf";
+  ASSERT_EQ(test::runBtfsim("simulate " + brick() + " -o " + raw + " --texels 2 --dirs 2x4 -q",
+                            nullptr),
+            0);
+  struct Case {
+    std::string args, expect;
+    int code;
+  } cases[] = {
+      {big + "''", "--output: must not be empty", 2},
+      {big + "/dev/full", "/dev/full: is not a regular file", 1},
+      {big + d + "/folder", "folder: is a folder; the output must be a file path", 1},
+      {big + d + "/file.txt/x.btf", "x.btf.partial: cannot create (Not a directory)", 1},
+      {big + "/sys/x.btf", "/sys/x.btf.partial: cannot create (Permission denied)", 1},
+      {"compress " + raw + " -o /dev/null", "/dev/null: is not a regular file", 1},
+      {"export " + raw + " --format ubo2003 -o /sys/ubo", "/sys/ubo: cannot create the folder", 1},
+      {"export " + raw + " --format ubo2003 -o " + d + "/file.txt", "file.txt: is a file", 1},
+      {"slice " + raw + " --view 0,0 --light 0,0 -o " + d + "/x.tga",
+       "x.tga: unsupported image type", 1},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.args);
+    std::string out;
+    EXPECT_EQ(test::runBtfsim(c.args, &out), c.code) << out;
+    EXPECT_EQ(out.rfind("btfsim: error: ", 0), 0u) << out;
+    EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+    EXPECT_NE(out.find(c.expect), std::string::npos) << out;
+  }
+  EXPECT_FALSE(fs::exists("/sys/ubo"));
+  EXPECT_TRUE(test::readFile(dir / "file.txt") == "not a folder\n");  // nothing replaced
+}
+
+TEST(HostileInput, GeometryPastTheMemoryBudgetIsRefusedBeforeItIsBuilt) {
+  const auto dir = test::tempDir("hostile_budget");
+  fs::copy_file(test::sourceDir() + "/resources/meshes/cube_cage.obj", dir / "cage.obj",
+                fs::copy_options::overwrite_existing);
+  auto scene = [&](const std::string& name, const std::string& part) {
+    std::ofstream(dir / name) << R"({"btfscene": 1, "materials": {"m": {"type": "lambert"}},
+      "parts": [)" << part << "]}";
+    return (dir / name).string();
+  };
+  struct Case {
+    std::string scene, budget, expect;
+  } cases[] = {
+      // 6 quads × 4^5 × 2 triangles at level 6 = 49 152 (× 4/3 for the refiner's levels); a
+      // 4 MiB budget allows 20 971.
+      {scene("subdiv.json", R"({"type": "subdiv", "material": "m", "path": "cage.obj", "levels": 6})"),
+       "4M", "cage.obj: 6 subdivision level(s) of a 6-face cage make 49152 triangles, more than "
+             "the 20971 the memory budget allows"},
+      {scene("hf.json", R"({"type": "sine", "material": "m", "resolution": [512, 512]})"), "16M",
+       "parts[0] ('sine0'): its resolution make 524288 triangles, more than the 83886"},
+      {scene("mesh.json", R"({"type": "mesh", "material": "m", "path": "cage.obj",
+         "array": {"count": [100, 100]}})"),
+       "1M", "10000 copies of 12 triangles make the tile 120000 triangles, above the 5242 a 1.0 MiB "
+             "memory budget allows"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.scene);
+    std::string out;
+    EXPECT_EQ(test::runBtfsim("simulate " + c.scene + " -o " + (dir / "o.btf").string() +
+                                  " --texels 2 --dirs 2x4 --memory-budget " + c.budget + " -q",
+                              &out),
+              1)
+        << out;
+    EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
     EXPECT_NE(out.find(c.expect), std::string::npos) << out;
   }
 }
