@@ -6,7 +6,7 @@
 # finding (crash, timeout > 10 s, allocation > 1 GiB, RSS > 2 GiB) to BUILD_DIR/fuzz-findings/T/.
 # Prints a table of executions, coverage and findings; exits 1 when there is a finding.
 set -uo pipefail
-BUILD=${1:?build dir}
+BUILD=$(cd "${1:?build dir}" && pwd)
 SECONDS_PER=${2:-60}
 shift 2 || true
 TARGETS=("$@")
@@ -14,8 +14,8 @@ TARGETS=("$@")
 SRC=$(cd "$(dirname "$0")/.." && pwd)
 JOBS=${FUZZ_JOBS:-$(nproc)}
 SUMMARY="$BUILD/fuzz-summary.md"
-echo "| target | seconds | workers | executions | exec/s | coverage | findings |" > "$SUMMARY"
-echo "|---|---|---|---|---|---|---|" >> "$SUMMARY"
+echo "| target | seconds | workers | executions | exec/s | coverage (edges) | oom/timeout/crash | findings |" > "$SUMMARY"
+echo "|---|---|---|---|---|---|---|---|" >> "$SUMMARY"
 status=0
 for t in "${TARGETS[@]}"; do
   bin="$BUILD/tests/fuzz/fuzz_$t"
@@ -34,13 +34,14 @@ for t in "${TARGETS[@]}"; do
       -max_total_time="$SECONDS_PER" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=1024 \
       -max_len=262144 -artifact_prefix="$findings/" -print_final_stats=1 \
       "$corpus" "$SRC/tests/fuzz/corpus/$t" "$SRC/tests/fuzz/regressions/$t" > "$logs/fuzz.log" 2>&1)
-  execs=$(grep -ho 'execs: [0-9]*' "$logs/fuzz.log" | tail -1 | grep -o '[0-9]*')
-  [ -z "$execs" ] && execs=$(grep -h 'stat::number_of_executed_units' "$logs"/*.log 2>/dev/null |
-    awk '{s += $2} END {print s + 0}')
-  cov=$(grep -ho 'cov: [0-9]*' "$logs/fuzz.log" | tail -1 | grep -o '[0-9]*')
+  # Fork mode's status lines: "#EXECS: cov: C ft: F corp: N exec/s R oom/timeout/crash: O/T/X ...".
+  last=$(grep -a '^#[0-9]*: cov:' "$logs/fuzz.log" | tail -1)
+  execs=$(echo "$last" | sed -n 's/^#\([0-9]*\):.*/\1/p')
+  cov=$(echo "$last" | sed -n 's/.* cov: \([0-9]*\).*/\1/p')
+  otc=$(echo "$last" | sed -n 's/.*oom\/timeout\/crash: \([0-9/]*\).*/\1/p')
   nfind=$(find "$findings" -type f | wc -l)
   rate=$(( ${execs:-0} / (SECONDS_PER > 0 ? SECONDS_PER : 1) ))
-  echo "| $t | $SECONDS_PER | $JOBS | ${execs:-0} | $rate | ${cov:-?} | $nfind |" >> "$SUMMARY"
+  echo "| $t | $SECONDS_PER | $JOBS | ${execs:-0} | $rate | ${cov:-?} | ${otc:-?} | $nfind |" >> "$SUMMARY"
   if [ "$nfind" -gt 0 ]; then
     status=1
     echo "fuzz: $t: $nfind finding(s) in $findings (replay: $bin FILE)" >&2

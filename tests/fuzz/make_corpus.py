@@ -363,8 +363,13 @@ def pairs():
 
 def main():
     btfsim = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else "build/app/btfsim")
-    # The seed corpus is all generated; regressions/ also keeps the fuzzers' findings (found_*).
-    shutil.rmtree(os.path.join(HERE, "corpus"), ignore_errors=True)
+    # Both folders also keep the fuzzers' findings (found_*: inputs that crashed, hung or broke a
+    # contract before their fix); the rest is generated here.
+    for kind in ("corpus", "regressions"):
+        for t in os.listdir(os.path.join(HERE, kind)) if os.path.isdir(os.path.join(HERE, kind)) else []:
+            for f in os.listdir(os.path.join(HERE, kind, t)):
+                if not f.startswith("found_"):
+                    os.remove(os.path.join(HERE, kind, t, f))
     for kind in ("corpus", "regressions"):
         for t in ("scene", "mesh", "image", "btf", "cbtf", "pairs"):
             os.makedirs(os.path.join(HERE, kind, t), exist_ok=True)

@@ -216,6 +216,8 @@ class RawDecoder final : public Decoder {
     std::array<float, 3> v{};
     verified(t);
     m_r->readValue(t, view, light, v.data());
+    // The decoder's contract (finite, >= 0) also for a crafted store whose chunk checksums hold.
+    for (float& x : v) x = std::isfinite(x) ? std::max(0.f, x) : 0.f;
     return v;
   }
   std::string kind() const override { return "raw"; }

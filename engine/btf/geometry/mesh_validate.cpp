@@ -206,6 +206,13 @@ MeshFileCounts validatePly(const std::string& path, std::string_view b, uint64_t
     pos = std::min(b.size(), eol + 1);
     ++line;
     if (!l.empty() && l.back() == '\r') l.pop_back();
+    // Header lines are printable ASCII: OpenMesh's header parser loops without end on some
+    // binary garbage, so nothing else reaches it.
+    for (char ch : l)
+      if (static_cast<unsigned char>(ch) < 32 && ch != '\t')
+        fail(line, "a control or binary byte in the header");
+      else if (static_cast<unsigned char>(ch) >= 127)
+        fail(line, "a non-ASCII byte in the header");
     std::vector<std::string> w;
     Tokens t(l, 0, line);
     std::string_view tok;
@@ -217,7 +224,7 @@ MeshFileCounts validatePly(const std::string& path, std::string_view b, uint64_t
     if (w.empty()) continue;
     if (w[0] == "comment" || w[0] == "obj_info") continue;
     if (w[0] == "format") {
-      if (w.size() < 2) fail(line, "format without a kind");
+      if (w.size() != 3 || w[2] != "1.0") fail(line, "expected 'format KIND 1.0'");
       if (w[1] == "ascii")
         format = 0;
       else if (w[1] == "binary_little_endian")
@@ -272,6 +279,10 @@ MeshFileCounts validatePly(const std::string& path, std::string_view b, uint64_t
     if (e.count > 0 && e.props.empty())
       fail(line, "element '" + e.name.substr(0, 32) + "' has items but no properties");
     if (e.name == "vertex") vertexEl = &e;
+    if (e.name == "face" && std::none_of(e.props.begin(), e.props.end(), [](const PlyProperty& p) {
+          return p.list && (p.name == "vertex_indices" || p.name == "vertex_index");
+        }))
+      fail(line, "the face element has no 'vertex_indices' list");
   }
   if (!vertexEl) fail(line, "no 'vertex' element");
   for (const char* axis : {"x", "y", "z"})

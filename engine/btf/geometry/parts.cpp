@@ -5,6 +5,7 @@
 #include <btf/core/input_file.h>
 #include <btf/core/rng.h>
 #include <btf/geometry/builders.h>
+#include <btf/io/exr_check.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iterator>
 #include <mutex>
 
@@ -140,7 +142,7 @@ std::vector<float> readHeightImage(const std::string& path, uint64_t maxPixels, 
                                    int* height) {
   // Compressed formats hold many pixels per byte, so the file's size bounds nothing: the
   // header's dimensions are checked against maxPixels before any pixel is decoded.
-  checkInputFile(path, "height image");
+  const uint64_t size = checkInputFile(path, "height image");
   static const char* const kFormats[] = {".png", ".exr", ".hdr",  ".pgm", ".ppm",
                                          ".pnm", ".tif", ".tiff", ".jpg", ".jpeg"};
   std::string ext = std::filesystem::path(path).extension().string();
@@ -148,10 +150,20 @@ std::vector<float> readHeightImage(const std::string& path, uint64_t maxPixels, 
   if (std::find(std::begin(kFormats), std::end(kFormats), ext) == std::end(kFormats))
     throw Error(path + ": unsupported height image type '" + ext +
                 "' (PNG, OpenEXR, Radiance HDR, PNM, TIFF or JPEG)");
+  if (ext == ".exr") {
+    // OpenEXR sizes allocations from its header before reading a pixel: walked first.
+    std::ifstream f(path, std::ios::binary);
+    std::string head(size_t(std::min<uint64_t>(size, uint64_t(16) << 20)), '\0');
+    f.read(head.data(), std::streamsize(head.size()));
+    head.resize(size_t(f.gcount()));
+    checkExrHeader(path, head, maxPixels);
+  }
   // libpng and libjpeg print their own complaints on stderr before OpenImageIO reports them:
   // that text is kept off the terminal while the image is read (the error we throw carries
   // OpenImageIO's message), so a damaged image is one line like every other error.
+#ifndef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION  // the fuzzer's own reports must reach stderr
   StderrCapture quiet;
+#endif
   // The plugin of the extension only: OpenImageIO's open() would try every other format's
   // reader on a file its own plugin refuses.
   auto in = OIIO::ImageInput::create(path);

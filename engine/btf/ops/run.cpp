@@ -218,8 +218,7 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
   } catch (const std::filesystem::filesystem_error& e) {
     // The standard library's text ("filesystem error: cannot create directories: …") in ours.
     cleanUp();
-    throw Error((e.path1().empty() ? r.command() : e.path1().string()) + ": " +
-                e.code().message());
+    throw Error((e.path1().empty() ? r.command() : e.path1().string()) + ": " + e.code().message());
   } catch (const std::bad_alloc&) {
     cleanUp();
     throw Error(r.command() +

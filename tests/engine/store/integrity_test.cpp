@@ -304,9 +304,9 @@ TEST(HostileInput, OutputsThatCannotBeWrittenAreRefusedBeforeWork) {
   // A run big enough that doing any work before the refusal would be seen (minutes, not ms).
   const std::string big = "simulate " + brick() + " --texels 512 --dirs 16x32 -o ";
   const std::string raw = d + "/b.btf";
-  ASSERT_EQ(test::runBtfsim("simulate " + brick() + " -o " + raw + " --texels 2 --dirs 2x4 -q",
-                            nullptr),
-            0);
+  ASSERT_EQ(
+      test::runBtfsim("simulate " + brick() + " -o " + raw + " --texels 2 --dirs 2x4 -q", nullptr),
+      0);
   struct Case {
     std::string args, expect;
     int code;
@@ -348,15 +348,18 @@ TEST(HostileInput, GeometryPastTheMemoryBudgetIsRefusedBeforeItIsBuilt) {
   } cases[] = {
       // 6 quads × 4^5 × 2 triangles at level 6 = 49 152 (× 4/3 for the refiner's levels); a
       // 4 MiB budget allows 20 971.
-      {scene("subdiv.json", R"({"type": "subdiv", "material": "m", "path": "cage.obj", "levels": 6})"),
-       "4M", "cage.obj: 6 subdivision level(s) of a 6-face cage make 49152 triangles, more than "
-             "the 20971 the memory budget allows"},
+      {scene("subdiv.json",
+             R"({"type": "subdiv", "material": "m", "path": "cage.obj", "levels": 6})"),
+       "4M",
+       "cage.obj: 6 subdivision level(s) of a 6-face cage make 49152 triangles, more than "
+       "the 20971 the memory budget allows"},
       {scene("hf.json", R"({"type": "sine", "material": "m", "resolution": [512, 512]})"), "16M",
        "parts[0] ('sine0'): its resolution make 524288 triangles, more than the 83886"},
       {scene("mesh.json", R"({"type": "mesh", "material": "m", "path": "cage.obj",
          "array": {"count": [100, 100]}})"),
-       "1M", "10000 copies of 12 triangles make the tile 120000 triangles, above the 5242 a 1.0 MiB "
-             "memory budget allows"},
+       "1M",
+       "10000 copies of 12 triangles make the tile 120000 triangles, above the 5242 a 1.0 MiB "
+       "memory budget allows"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.scene);
