@@ -3,7 +3,6 @@
 // through the Decoder API (finite, >= 0).
 #include <btf/compress/codec.h>
 #include <btf/core/error.h>
-#include <btf/ops/ops.h>
 #include <btf/store/btf_store.h>
 
 #include <algorithm>
@@ -15,20 +14,12 @@ namespace btf::fuzz {
 const char* const kTargetName = "btf";
 
 std::string cliArgs(const uint8_t* data, size_t size) {
-  const std::string bytes = repairChecksums(std::string(reinterpret_cast<const char*>(data), size));
-  return "info " + writeInput(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), "btf");
+  return "info " + writeRepaired(data, size, "btf");
 }
 
 void btfFuzzOne(const uint8_t* data, size_t size) {
-  const std::string bytes = repairChecksums(std::string(reinterpret_cast<const char*>(data), size));
-  const std::string path =
-      writeInput(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), "btf");
-  RunContext ctx;
-  ctx.threads = 1;
-  ctx.progress = false;
-  ops::Request info("info");
-  info.set("btf", path);
-  ops::run(info, ctx);
+  const std::string path = writeRepaired(data, size, "btf");
+  runCliReaders(path);
   const BtfReader r(path);
   const auto v = r.verify();
   check(v.chunks == r.info().chunks(), "verify() saw another chunk count");

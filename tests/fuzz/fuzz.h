@@ -47,6 +47,12 @@ std::string repairChecksums(std::string bytes);
 /// one interpolated lookup, all finite and >= 0.
 void checkDecoder(const Decoder& d);
 
+/// The input with its checksums repaired, written as input.EXT; returns its path.
+std::string writeRepaired(const uint8_t* data, size_t size, const std::string& ext);
+/// A BTF file through the use cases the CLI runs on it: `info`, a `slice` of the texel average
+/// (every texel, every view) and a `compare` with itself, whose error must be exactly 0.
+void runCliReaders(const std::string& path);
+
 /// What the last call ended with: "" when it succeeded, else the btf::Error's message.
 extern std::string lastError;
 /// Runs the target on one input, recording lastError; aborts on any other exception.

@@ -2,6 +2,7 @@
 #include <btf/core/container.h>
 #include <btf/core/error.h>
 #include <btf/core/hash.h>
+#include <btf/ops/ops.h>
 #include <btf/store/btf_store.h>
 #include <unistd.h>
 
@@ -156,6 +157,32 @@ void checkDecoder(const Decoder& d) {
   }
   const auto e = d.evaluateAt(0.37, 0.61, 0.4, 1.0, 0.8, 2.5);
   for (float c : e) check(std::isfinite(c) && c >= 0, "an interpolated value not finite or < 0");
+}
+
+std::string writeRepaired(const uint8_t* data, size_t size, const std::string& ext) {
+  const std::string b = repairChecksums(std::string(reinterpret_cast<const char*>(data), size));
+  return writeInput(reinterpret_cast<const uint8_t*>(b.data()), b.size(), ext);
+}
+
+void runCliReaders(const std::string& path) {
+  RunContext ctx;
+  ctx.threads = 1;
+  ctx.progress = false;
+  ops::Request info("info");
+  info.set("btf", path);
+  ops::run(info, ctx);
+  // The other readers of a BTF as the CLI runs them: a hemisphere slice of the texel average
+  // (every texel, every view) and a comparison with itself (every value, twice).
+  ops::Request slice("slice");
+  slice.set("btf", path).set("output", inputDir() + "/slice.exr");
+  slice.set("texel", "avg").set("light", "30,0").set("size", 8);
+  ops::run(slice, ctx);
+  ops::Request compare("compare");
+  compare.set("a", path).set("b", path);
+  const ops::Report same = ops::run(compare, ctx);
+  check(same.json.contains("rmse") && same.json["rmse"].get<double>() == 0 &&
+            same.json["max_abs_error"].get<double>() == 0,
+        "a BTF compared with itself has a nonzero error");
 }
 
 std::string repairChecksums(std::string b) {

@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -26,6 +27,20 @@
 #include "fuzz.h"
 
 namespace fs = std::filesystem;
+
+// Sanitizers reserve terabytes of address space for their shadow memory: under them the
+// address-space limit is left off (ASan reports huge allocations itself).
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kLimitAddressSpace = false;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+constexpr bool kLimitAddressSpace = false;
+#else
+constexpr bool kLimitAddressSpace = true;
+#endif
+#else
+constexpr bool kLimitAddressSpace = true;
+#endif
 
 namespace {
 
@@ -44,7 +59,7 @@ std::string replay(const fs::path& file, bool expectError, int timeoutS, long ma
   if (pid < 0) return "cannot fork";
   if (pid == 0) {
     ::close(pipefd[0]);
-    if (maxMemoryMb > 0) {
+    if (kLimitAddressSpace && maxMemoryMb > 0) {
       const rlim_t lim = rlim_t(maxMemoryMb) << 20;
       struct rlimit rl {
         lim, lim
@@ -102,13 +117,18 @@ std::string replayCli(const fs::path& file, const std::string& btfsim, std::stri
     return std::string("cannot prepare the command: ") + e.what();
   }
   const std::string cmd = "timeout 120 " + btfsim + " " + args + " -q < /dev/null 2>&1";
+  const auto t0 = std::chrono::steady_clock::now();
   FILE* p = ::popen(cmd.c_str(), "r");
   if (!p) return "cannot run " + btfsim;
   std::string out;
   char buf[4096];
   for (size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
   const int status = ::pclose(p);
-  *message = out.substr(0, out.find('\n'));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  char took[32];
+  std::snprintf(took, sizeof took, "(%.2f s) ", seconds);
+  *message = took + out.substr(0, out.find('\n'));
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   if (code == 124) return "btfsim " + args + ": still running after 120 s";
   if (code != 1) return "btfsim " + args + ": exit status " + std::to_string(code) + ": " + out;

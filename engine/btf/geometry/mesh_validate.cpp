@@ -63,6 +63,13 @@ bool parseInteger(std::string_view tok, int64_t& v) {
   return true;
 }
 
+/// The refusal of a well-formed mesh that is too large (counted as far as it was read).
+[[noreturn]] void tooMany(const std::string& path, const MeshFileCounts& c, uint64_t maxTriangles) {
+  throw Error(path + ": the mesh's first " + std::to_string(c.faces) + " faces already make " +
+              std::to_string(c.triangles) + " triangles, more than the " +
+              std::to_string(maxTriangles) + " the memory budget allows");
+}
+
 // ------------------------------------------------------------------------------------ PLY
 
 enum class PlyType { I8, U8, I16, U16, I32, U32, F32, F64 };
@@ -320,9 +327,7 @@ MeshFileCounts validatePly(const std::string& path, std::string_view b, uint64_t
         if (indices) {
           ++counts.faces;
           counts.triangles += uint64_t(n) - 2;
-          if (counts.triangles > maxTriangles)
-            body.fail(where, "takes the mesh past " + std::to_string(maxTriangles) +
-                                 " triangles, more than the memory budget allows");
+          if (counts.triangles > maxTriangles) tooMany(path, counts, maxTriangles);
         }
       }
     }
@@ -348,7 +353,22 @@ MeshFileCounts validateObj(const std::string& path, std::string_view b, uint64_t
     Tokens t(l, 0, line);
     std::string_view key, tok;
     if (!t.next(key)) continue;
-    if (key == "v") {
+    if (key == "mtllib") {
+      // OpenMesh opens the material library next to the file: it must be a small regular file
+      // (a device there would be read without end), or absent.
+      std::string name(l.substr(l.find("mtllib") + 6));
+      while (!name.empty() && std::isspace(static_cast<unsigned char>(name.front())))
+        name.erase(0, 1);
+      while (!name.empty() && std::isspace(static_cast<unsigned char>(name.back())))
+        name.pop_back();
+      const std::filesystem::path lib = std::filesystem::path(path).parent_path() / name;
+      std::error_code ec;
+      if (!name.empty() && std::filesystem::exists(lib, ec) &&
+          (!std::filesystem::is_regular_file(lib, ec) ||
+           std::filesystem::file_size(lib, ec) > (uint64_t(16) << 20)))
+        fail("material library '" + name.substr(0, 64) +
+             "' is not a regular file of at most 16 MiB");
+    } else if (key == "v") {
       for (int k = 0; k < 3; ++k) {
         double v;
         if (!t.next(tok) || !parseDouble(tok, v)) fail("a vertex needs three numbers");
@@ -373,9 +393,7 @@ MeshFileCounts validateObj(const std::string& path, std::string_view b, uint64_t
       if (n < 3) fail("a face needs at least 3 vertices");
       ++counts.faces;
       counts.triangles += n - 2;
-      if (counts.triangles > maxTriangles)
-        fail("the faces take the mesh past " + std::to_string(maxTriangles) +
-             " triangles, more than the memory budget allows");
+      if (counts.triangles > maxTriangles) tooMany(path, counts, maxTriangles);
     }
   }
   return counts;
@@ -481,9 +499,7 @@ MeshFileCounts validateOff(const std::string& path, std::string_view b, uint64_t
     }
     ++counts.faces;
     counts.triangles += uint64_t(n) - 2;
-    if (counts.triangles > maxTriangles)
-      failF("takes the mesh past " + std::to_string(maxTriangles) +
-            " triangles, more than the memory budget allows");
+    if (counts.triangles > maxTriangles) tooMany(path, counts, maxTriangles);
     ++f;
   }
   return counts;

@@ -16,6 +16,7 @@
 #include <fstream>
 #include <iterator>
 #include <mutex>
+#include <string_view>
 
 namespace btf {
 
@@ -143,30 +144,55 @@ std::vector<float> readHeightImage(const std::string& path, uint64_t maxPixels, 
   // Compressed formats hold many pixels per byte, so the file's size bounds nothing: the
   // header's dimensions are checked against maxPixels before any pixel is decoded.
   const uint64_t size = checkInputFile(path, "height image");
-  static const char* const kFormats[] = {".png", ".exr", ".hdr",  ".pgm", ".ppm",
-                                         ".pnm", ".tif", ".tiff", ".jpg", ".jpeg"};
+  // The format is the extension's, and the file's first bytes must be that format's signature:
+  // OpenImageIO would otherwise hand a file its plugin refuses to every other format's reader.
+  struct Format {
+    const char* ext;
+    const char* plugin;
+    const char* name;
+  };
+  static const Format kFormats[] = {{".png", "png", "PNG"},          {".exr", "openexr", "OpenEXR"},
+                                    {".hdr", "hdr", "Radiance HDR"}, {".pgm", "pnm", "PNM"},
+                                    {".ppm", "pnm", "PNM"},          {".pnm", "pnm", "PNM"},
+                                    {".tif", "tiff", "TIFF"},        {".tiff", "tiff", "TIFF"},
+                                    {".jpg", "jpeg", "JPEG"},        {".jpeg", "jpeg", "JPEG"}};
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
-  if (std::find(std::begin(kFormats), std::end(kFormats), ext) == std::end(kFormats))
+  const Format* fmt = nullptr;
+  for (const Format& f : kFormats)
+    if (ext == f.ext) fmt = &f;
+  if (!fmt)
     throw Error(path + ": unsupported height image type '" + ext +
                 "' (PNG, OpenEXR, Radiance HDR, PNM, TIFF or JPEG)");
-  if (ext == ".exr") {
-    // OpenEXR sizes allocations from its header before reading a pixel: walked first.
+  std::string head;
+  {
     std::ifstream f(path, std::ios::binary);
-    std::string head(size_t(std::min<uint64_t>(size, uint64_t(16) << 20)), '\0');
+    head.assign(size_t(std::min<uint64_t>(size, uint64_t(16) << 20)), '\0');
     f.read(head.data(), std::streamsize(head.size()));
     head.resize(size_t(f.gcount()));
-    checkExrHeader(path, head, maxPixels);
   }
-  // libpng and libjpeg print their own complaints on stderr before OpenImageIO reports them:
-  // that text is kept off the terminal while the image is read (the error we throw carries
-  // OpenImageIO's message), so a damaged image is one line like every other error.
+  const std::string_view plugin = fmt->plugin;
+  const bool signed_ =
+      (plugin == "png" && head.rfind("\x89PNG\r\n\x1a\n", 0) == 0) ||
+      (plugin == "openexr" && head.rfind("\x76\x2f\x31\x01", 0) == 0) ||
+      (plugin == "hdr" && head.rfind("#?", 0) == 0) ||
+      (plugin == "pnm" && head.size() >= 2 && head[0] == 'P' &&
+       std::string_view("123456fF").find(head[1]) != std::string_view::npos) ||
+      (plugin == "tiff" && (head.rfind("II*", 0) == 0 || head.rfind("MM", 0) == 0)) ||
+      (plugin == "jpeg" && head.rfind("\xff\xd8\xff", 0) == 0);
+  if (!signed_)
+    throw Error(path + ": not a " + fmt->name + " file (its first bytes are not a " + fmt->name +
+                " signature)");
+  // OpenEXR sizes allocations from its header before reading a pixel: walked first.
+  if (plugin == "openexr") checkExrHeader(path, head, maxPixels);
+    // libpng and libjpeg print their own complaints on stderr before OpenImageIO reports them:
+    // that text is kept off the terminal while the image is read (the error we throw carries
+    // OpenImageIO's message), so a damaged image is one line like every other error.
 #ifndef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION  // the fuzzer's own reports must reach stderr
   StderrCapture quiet;
 #endif
-  // The plugin of the extension only: OpenImageIO's open() would try every other format's
-  // reader on a file its own plugin refuses.
-  auto in = OIIO::ImageInput::create(path);
+  // The plugin by its name, opened alone (no other reader is tried).
+  auto in = OIIO::ImageInput::create(std::string(plugin));
   OIIO::ImageSpec opened;
   if (!in || !in->open(path, opened))
     throw Error(path + ": cannot read height image (" +

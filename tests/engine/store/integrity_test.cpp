@@ -338,6 +338,17 @@ TEST(HostileInput, GeometryPastTheMemoryBudgetIsRefusedBeforeItIsBuilt) {
   const auto dir = test::tempDir("hostile_budget");
   fs::copy_file(test::sourceDir() + "/resources/meshes/cube_cage.obj", dir / "cage.obj",
                 fs::copy_options::overwrite_existing);
+  {
+    // A 100 × 30 grid of quads as a closed-enough sheet: 6000 triangles.
+    std::ofstream f(dir / "sheet.obj");
+    for (int j = 0; j <= 30; ++j)
+      for (int i = 0; i <= 100; ++i) f << "v " << i / 100.0 << " " << j / 30.0 << " 0\n";
+    for (int j = 0; j < 30; ++j)
+      for (int i = 0; i < 100; ++i) {
+        const int a = j * 101 + i + 1;
+        f << "f " << a << " " << a + 1 << " " << a + 102 << " " << a + 101 << "\n";
+      }
+  }
   auto scene = [&](const std::string& name, const std::string& part) {
     std::ofstream(dir / name) << R"({"btfscene": 1, "materials": {"m": {"type": "lambert"}},
       "parts": [)" << part << "]}";
@@ -355,6 +366,9 @@ TEST(HostileInput, GeometryPastTheMemoryBudgetIsRefusedBeforeItIsBuilt) {
        "the 20971 the memory budget allows"},
       {scene("hf.json", R"({"type": "sine", "material": "m", "resolution": [512, 512]})"), "16M",
        "parts[0] ('sine0'): its resolution make 524288 triangles, more than the 83886"},
+      {scene("sheet.json", R"({"type": "mesh", "material": "m", "path": "sheet.obj"})"), "1M",
+       "sheet.obj: the mesh's first 2622 faces already make 5244 triangles, more than the 5242 "
+       "the memory budget allows"},
       {scene("mesh.json", R"({"type": "mesh", "material": "m", "path": "cage.obj",
          "array": {"count": [100, 100]}})"),
        "1M",
