@@ -4,9 +4,11 @@
 #include <btf/compress/cbtf.h>
 #include <btf/compress/export.h>
 #include <btf/core/error.h>
+#include <btf/core/input_file.h>
 #include <btf/core/sysinfo.h>
 #include <btf/ops/ops.h>
 #include <btf/sim/simulator.h>
+#include <btf/sim/study.h>
 #include <imgui.h>
 
 #include <filesystem>
@@ -210,41 +212,25 @@ int App::startCodecSweep(const std::string& reference) {
 void App::loadStudy(const std::string& dir) {
   study = StudyState{};
   study.dir = dir;
-  std::ifstream f(dir + "/study.csv");
-  if (!f) {
-    study.error = dir + "/study.csv: cannot open (run a study first)";
-    throw Error(study.error);
+  const std::string file = dir + "/study.csv";
+  std::vector<StudyRow> rows;
+  try {
+    checkInputFile(file, "study table", uint64_t(64) << 20, "64 MiB");
+    std::ifstream f(file, std::ios::binary);
+    std::stringstream text;
+    text << f.rdbuf();
+    rows = parseStudyCsv(text.str(), file);
+  } catch (const Error& e) {
+    study.error = e.what();
+    throw;
   }
-  std::string line;
-  std::getline(f, line);
-  std::vector<std::string> head;
-  {
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) head.push_back(c);
-  }
-  auto col = [&](const std::string& n) {
-    for (size_t i = 0; i < head.size(); ++i)
-      if (head[i] == n) return int(i);
-    throw Error(dir + "/study.csv: no column '" + n + "'");
-  };
-  const int cl = col("config"), cs = col("seconds"), ce = col("probe_rel_rmse"), cp = col("pareto"),
-            cd = col("dirs"), cq = col("spp");
-  while (std::getline(f, line)) {
-    std::vector<std::string> v;
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) v.push_back(c);
-    if (int(v.size()) <= std::max({cl, cs, ce, cp, cd, cq})) continue;
-    std::string label = v[size_t(cl)];
-    std::erase(label, '"');
-    study.points.push_back(
-        {label, std::stod(v[size_t(cs)]), std::stod(v[size_t(ce)]), v[size_t(cp)] == "1"});
-    // The configuration the job form would simulate with (directions and spp; network method).
-    const SimOptions fo = ops::simOptions(doc.scene(), form.sim);
-    if (study.chosen.empty() && v[size_t(cd)] == fo.directions &&
-        v[size_t(cq)] == std::to_string(fo.spp) && label.rfind("pt ", 0) != 0)
-      study.chosen = label;
+  // The configuration the job form would simulate with (directions and spp; network method).
+  const SimOptions fo = ops::simOptions(doc.scene(), form.sim);
+  for (const StudyRow& r : rows) {
+    study.points.push_back({r.config, r.seconds, r.error, r.pareto});
+    if (study.chosen.empty() && r.dirs == fo.directions && r.spp == fo.spp &&
+        r.config.rfind("pt ", 0) != 0)
+      study.chosen = r.config;
   }
   message("loaded study " + dir + " (" + std::to_string(study.points.size()) + " configurations)");
 }

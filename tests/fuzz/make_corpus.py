@@ -361,6 +361,25 @@ def pairs():
     regression("pairs", "negative_theta.csv", "-1,0,30,180\n")
 
 
+# ------------------------------------------------------------------------------ study tables
+STUDY_HEAD = ("config,dirs,spp,shadows,bounces,voxels,gather,links,seconds,precompute_seconds,"
+              "render_seconds,network_points,probe_rel_rmse,set_rel_rmse,probe_max_rel,"
+              "image_rel_rmse,peak_rss_bytes,pareto\n")
+
+
+def studies():
+    row = '"network 16x32 spp2, P=3",16x32,2,map,3,32,16,16,%s,0.1,0.2,1152,%s,0.02,0.05,0.03,1000,%s\n'
+    seed("study", "study.csv", STUDY_HEAD + row % ("1.5", "0.012", "1") + row % ("0.4", "0.05", "0"))
+    seed("study", "reordered.csv", "pareto,seconds,probe_rel_rmse,config,spp,dirs\n1,2.0,0.1,a,1,8x16\n")
+    regression("study", "missing_column.csv", "config,dirs,spp,seconds,pareto\na,8x16,1,2,1\n")
+    regression("study", "nan_seconds.csv", STUDY_HEAD + row % ("nan", "0.01", "1"))
+    regression("study", "negative_error.csv", STUDY_HEAD + row % ("1", "-0.01", "1"))
+    regression("study", "short_row.csv", STUDY_HEAD + "a,b,1\n")
+    regression("study", "pareto_2.csv", STUDY_HEAD + row % ("1", "0.01", "2"))
+    regression("study", "huge_spp.csv", STUDY_HEAD + row.replace(",2,map", ",1e300,map") % ("1", "0.01", "1"))
+    regression("study", "empty.csv", "")
+
+
 def main():
     btfsim = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else "build/app/btfsim")
     # Both folders also keep the fuzzers' findings (found_*: inputs that crashed, hung or broke a
@@ -371,7 +390,7 @@ def main():
                 if not f.startswith("found_"):
                     os.remove(os.path.join(HERE, kind, t, f))
     for kind in ("corpus", "regressions"):
-        for t in ("scene", "mesh", "image", "btf", "cbtf", "pairs"):
+        for t in ("scene", "mesh", "image", "btf", "cbtf", "pairs", "study"):
             os.makedirs(os.path.join(HERE, kind, t), exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         scenes()
@@ -379,6 +398,7 @@ def main():
         btfs(btfsim, tmp)
         images(btfsim, tmp)
         pairs()
+        studies()
 
 
 if __name__ == "__main__":

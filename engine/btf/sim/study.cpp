@@ -306,6 +306,67 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
   return st;
 }
 
+std::vector<StudyRow> parseStudyCsv(const std::string& text, const std::string& source) {
+  // Fields split at commas outside double quotes; quotes removed.
+  auto fields = [](const std::string& line) {
+    std::vector<std::string> v(1);
+    bool quoted = false;
+    for (char ch : line) {
+      if (ch == '"')
+        quoted = !quoted;
+      else if (ch == ',' && !quoted)
+        v.emplace_back();
+      else if (ch != '\r')
+        v.back() += ch;
+    }
+    return v;
+  };
+  std::istringstream in(text);
+  std::string line;
+  if (!std::getline(in, line)) throw Error(source + ": empty study table (no header line)");
+  const std::vector<std::string> head = fields(line);
+  auto col = [&](const char* n) {
+    for (size_t i = 0; i < head.size(); ++i)
+      if (head[i] == n) return i;
+    throw Error(source + ":1: no column '" + n + "'");
+  };
+  const size_t cl = col("config"), cd = col("dirs"), cq = col("spp"), cs = col("seconds"),
+               ce = col("probe_rel_rmse"), cp = col("pareto");
+  const size_t need = std::max({cl, cd, cq, cs, ce, cp}) + 1;
+  std::vector<StudyRow> rows;
+  for (int n = 2; std::getline(in, line); ++n) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    const std::string where = source + ":" + std::to_string(n);
+    if (rows.size() == 100000) throw Error(where + ": more than 100000 rows");
+    const std::vector<std::string> v = fields(line);
+    if (v.size() < need)
+      throw Error(where + ": " + std::to_string(v.size()) + " fields, the header names " +
+                  std::to_string(head.size()));
+    auto number = [&](size_t c, const char* name) {
+      const std::string& t = v[c];
+      char* end = nullptr;
+      const double x = t.empty() ? NAN : std::strtod(t.c_str(), &end);
+      if (t.empty() || end != t.c_str() + t.size() || !std::isfinite(x) || x < 0)
+        throw Error(where + ": column '" + name + "' must be a finite number >= 0 (got '" +
+                    t.substr(0, 32) + "')");
+      return x;
+    };
+    StudyRow r;
+    r.config = v[cl].substr(0, 256);
+    r.dirs = v[cd].substr(0, 64);
+    const double spp = number(cq, "spp");
+    if (spp != std::floor(spp) || spp > 4096)
+      throw Error(where + ": column 'spp' must be an integer in 0..4096");
+    r.spp = int(spp);
+    r.seconds = number(cs, "seconds");
+    r.error = number(ce, "probe_rel_rmse");
+    if (v[cp] != "0" && v[cp] != "1") throw Error(where + ": column 'pareto' must be 0 or 1");
+    r.pareto = v[cp] == "1";
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
 void writeStudy(const Study& s, const std::string& dir) {
   makeFolder(dir);
   std::ostringstream csv;

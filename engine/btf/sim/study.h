@@ -81,4 +81,16 @@ void markPareto(std::vector<StudyResult>& results);
 /// Pareto front joined) in `dir`.
 void writeStudy(const Study& s, const std::string& dir);
 
+/// One row of a study.csv as the studio plots it.
+struct StudyRow {
+  std::string config, dirs;
+  int spp = 0;
+  double seconds = 0, error = 0;  // wall time, probe relative RMSE: finite, >= 0
+  bool pareto = false;
+};
+/// Reads the text of a study.csv (writeStudy's columns, found by name in the header line).
+/// Throws btf::Error "SOURCE:LINE: …" naming the column and the rule for a missing column, a
+/// short row or a value that is not a finite number >= 0; at most 100 000 rows.
+std::vector<StudyRow> parseStudyCsv(const std::string& text, const std::string& source);
+
 }  // namespace btf
