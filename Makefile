@@ -59,10 +59,10 @@ fuzz:
 # of TBB's uninstrumented scheduler, see engine/btf/core/parallel.cpp), the studio's job queue and
 # preview thread (no GL), and the btfsim runs the CLI tests start. Suppressions with their
 # reasons: tests/tsan.supp. Not part of `make test` (a full rebuild, tests ~10x slower).
-TSAN_ENGINE_TESTS ?= Adaptive.*:Direct.*:Network.*:PathTracer.*:Codecs.*:Energy.*:Study.*:BtfsimCompress.*:Integrity.*
+TSAN_ENGINE_TESTS ?= Adaptive.*:Direct.*:Network.*:PathTracer.*:Codecs.*:Energy.*:Ops.*:BtfStore.*
 TSAN_UI_TESTS ?= Jobs.*:Preview.*:JobRequests.*
 tsan: deps
-	cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DBTF_TSAN=ON
+	cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=None -DCMAKE_CXX_FLAGS="-O1 -g1" -DBTF_TSAN=ON
 	cmake --build build-tsan -j $(JOBS) --target engine_tests ui_tests btfsim btfstudio
 	cd build-tsan && export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$(CURDIR)/tests/tsan.supp" && \
 	  tests/engine_tests --gtest_filter='$(TSAN_ENGINE_TESTS)' && tests/ui_tests --gtest_filter='$(TSAN_UI_TESTS)'

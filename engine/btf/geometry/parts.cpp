@@ -181,8 +181,8 @@ std::vector<float> readHeightImage(const std::string& path, uint64_t maxPixels, 
       (plugin == "tiff" && (head.rfind("II*", 0) == 0 || head.rfind("MM", 0) == 0)) ||
       (plugin == "jpeg" && head.rfind("\xff\xd8\xff", 0) == 0);
   if (!signed_)
-    throw Error(path + ": not a " + fmt->name + " file (its first bytes are not a " + fmt->name +
-                " signature)");
+    throw Error(path + ": content does not match the " + ext + " extension (no " + fmt->name +
+                " signature in its first bytes)");
   // OpenEXR sizes allocations from its header before reading a pixel: walked first.
   if (plugin == "openexr") checkExrHeader(path, head, maxPixels);
     // libpng and libjpeg print their own complaints on stderr before OpenImageIO reports them:
