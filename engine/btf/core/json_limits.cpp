@@ -8,10 +8,15 @@
 
 namespace btf {
 
-void checkJsonDepth(std::string_view text, const std::string& source, int maxDepth) {
-  int depth = 0, line = 1;
+namespace {
+/// Calls f(i, line) for every character of `text` outside JSON strings (quotes included in
+/// neither); f returns the index to continue after (i to go on character by character).
+template <class F>
+void scanOutsideStrings(std::string_view text, F&& f) {
+  size_t line = 1;
   bool inString = false, escaped = false;
-  for (char ch : text) {
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char ch = text[i];
     if (ch == '\n') ++line;
     if (inString) {
       if (escaped)
@@ -22,16 +27,27 @@ void checkJsonDepth(std::string_view text, const std::string& source, int maxDep
         inString = false;
       continue;
     }
-    if (ch == '"') {
+    if (ch == '"')
       inString = true;
-    } else if (ch == '[' || ch == '{') {
+    else
+      i = f(i, line);
+  }
+}
+}  // namespace
+
+void checkJsonDepth(std::string_view text, const std::string& source, int maxDepth) {
+  int depth = 0;
+  scanOutsideStrings(text, [&](size_t i, size_t line) {
+    const char ch = text[i];
+    if (ch == '[' || ch == '{') {
       if (++depth > maxDepth)
         throw Error(source + ":" + std::to_string(line) + ": JSON nested deeper than " +
                     std::to_string(maxDepth) + " levels");
     } else if (ch == ']' || ch == '}') {
       --depth;
     }
-  }
+    return i;
+  });
 }
 
 nlohmann::json parseJsonText(const std::string& text, const std::string& source, int maxDepth) {
@@ -66,36 +82,21 @@ nlohmann::json parseJsonText(const std::string& text, const std::string& source,
   } catch (const nlohmann::json::out_of_range&) {
     // The library says which literal but not where: find the first number (outside strings)
     // that overflows a double.
-    size_t line = 1;
-    bool inString = false, escaped = false;
-    for (size_t i = 0; i < text.size(); ++i) {
+    scanOutsideStrings(text, [&](size_t i, size_t line) {
       const char ch = text[i];
-      if (ch == '\n') ++line;
-      if (inString) {
-        if (escaped)
-          escaped = false;
-        else if (ch == '\\')
-          escaped = true;
-        else if (ch == '"')
-          inString = false;
-        continue;
-      }
-      if (ch == '"') {
-        inString = true;
-      } else if ((ch == '-' || (ch >= '0' && ch <= '9')) &&
-                 (i == 0 ||
-                  std::string_view(",:[ \t\r\n").find(text[i - 1]) != std::string::npos)) {
-        size_t j = i + 1;
-        while (j < text.size() &&
-               std::string_view("0123456789.eE+-").find(text[j]) != std::string_view::npos)
-          ++j;
-        const std::string lit = text.substr(i, std::min<size_t>(j - i, 40));
-        if (std::isinf(std::strtod(lit.c_str(), nullptr)))
-          throw Error(source + ":" + std::to_string(line) + ": the number " + lit +
-                      " is beyond the range of a double (about 1.8e308)");
-        i = j - 1;
-      }
-    }
+      if (!(ch == '-' || (ch >= '0' && ch <= '9')) ||
+          (i > 0 && std::string_view(",:[ \t\r\n").find(text[i - 1]) == std::string::npos))
+        return i;
+      size_t j = i + 1;
+      while (j < text.size() &&
+             std::string_view("0123456789.eE+-").find(text[j]) != std::string_view::npos)
+        ++j;
+      const std::string lit = text.substr(i, std::min<size_t>(j - i, 40));
+      if (std::isinf(std::strtod(lit.c_str(), nullptr)))
+        throw Error(source + ":" + std::to_string(line) + ": the number " + lit +
+                    " is beyond the range of a double (about 1.8e308)");
+      return j - 1;
+    });
     throw Error(source + ": a JSON number beyond the range of a double (about 1.8e308)");
   } catch (const nlohmann::json::exception&) {
     throw Error(source + ": malformed JSON");
