@@ -11,17 +11,22 @@ uniform int u_ringFirst[MAX_RINGS];
 uniform int u_nu;
 uniform int u_nv;
 uniform int u_n;      // directions in the set
-uniform int u_codec;  // 0 nmf, 1 svd, 2 perview, 3 lpca
+uniform int u_codec;  // 0 nmf, 1 svd, 2 perview, 3 lpca, 4 tensor
 uniform int u_ycc;    // 1: channels are Y, U, V
 uniform int u_c0[3];  // nmf: Cv; linear codecs: C
 uniform int u_c1[3];  // nmf: Cl
 uniform int u_k[3];   // nmf: slots K
 // Channel ch's arrays: nmf basis_view, basis_light, coef_view, coef_light; linear codecs use
-// a = basis, b = coef.
+// a = basis, b = coef; tensor: view, light, core and the channel's cluster table (6 floats per
+// cluster: Rv, Rl, Rt and the offsets of its view, light and core blocks). For tensor,
+// u_cluster holds 3 floats per texel (cluster, offset in coef, offset in u_tM or -1), u_tcoef
+// the coefficients and u_tM the per-texel Rv × Rl matrices the CPU decoder also uses
+// (TensorGpuTables).
 uniform samplerBuffer u_a0, u_b0, u_c0buf, u_d0;
 uniform samplerBuffer u_a1, u_b1, u_c1buf, u_d1;
 uniform samplerBuffer u_a2, u_b2, u_c2buf, u_d2;
 uniform samplerBuffer u_cluster;
+uniform samplerBuffer u_tcoef, u_tM;
 
 const float kTwoPi = 6.283185307179586;
 
@@ -112,12 +117,15 @@ vec3 decodeValue(int t, int o, int l) {
 
 vec3 decodeNmfTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO, float phiO);
 bool nmfFast();
+vec3 decodeTensorTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO,
+                        float phiO);
 
 // aBRDF of texel t at any directions (radians): 4 × 4 interpolated values.
 vec3 decodeTexel(int t, float thetaI, float phiI, float thetaO, float phiO) {
-  if (nmfFast()) {
+  if (nmfFast() || u_codec == 4) {
     int tt[4] = int[4](t, t, t, t);
     float tw[4] = float[4](1.0, 0.0, 0.0, 0.0);
+    if (u_codec == 4) return decodeTensorTexels(tt, tw, thetaI, phiI, thetaO, phiO);
     return decodeNmfTexels(tt, tw, thetaI, phiI, thetaO, phiO);
   }
   int li[4], vi[4];
@@ -183,9 +191,79 @@ vec3 decodeNmfTexels(int tt[4], float tw[4], float thetaI, float phiI, float the
   return acc;
 }
 
+// tensor per texel and channel: M (Rv × Rl, from u_tM or formed from the coefficients and the
+// core), then M·y for the 4 interpolation lights (4·Rv·Rl products) and xᵀ(M·y) for the 16
+// pairs. Each pair is converted to RGB and clamped before the weighted sum, like the CPU.
+#define MAX_TR 64
+int tabInt(samplerBuffer tab, int k, int i) { return int(fetch(tab, k * 6 + i) + 0.5); }
+void tensorPairs(samplerBuffer view, samplerBuffer light, samplerBuffer core, samplerBuffer tab,
+                 int t, int cOff, int mOff, int vi[4], float vw[4], int li[4], float lw[4],
+                 out float val[16]) {
+  for (int i = 0; i < 16; ++i) val[i] = 0.0;
+  int k = int(fetch(u_cluster, t * 3) + 0.5);
+  int Rv = tabInt(tab, k, 0), Rl = tabInt(tab, k, 1), Rt = tabInt(tab, k, 2);
+  if (Rt == 0) return;
+  int oV = tabInt(tab, k, 3), oL = tabInt(tab, k, 4), oC = tabInt(tab, k, 5);
+  float Y[4 * MAX_TR], MY[4 * MAX_TR];
+  for (int q = 0; q < 4; ++q)
+    for (int b = 0; b < Rl; ++b) Y[q * MAX_TR + b] = lw[q] > 0.0 ? fetch(light, oL + li[q] * Rl + b) : 0.0;
+  for (int i = 0; i < 4 * MAX_TR; ++i) MY[i] = 0.0;
+  for (int a = 0; a < Rv; ++a)
+    for (int b = 0; b < Rl; ++b) {
+      float m = 0.0;
+      if (mOff >= 0) {
+        m = fetch(u_tM, mOff + a * Rl + b);
+      } else {
+        for (int j = 0; j < Rt; ++j) m += fetch(u_tcoef, cOff + j) * fetch(core, oC + (j * Rv + a) * Rl + b);
+      }
+      for (int q = 0; q < 4; ++q) MY[q * MAX_TR + a] += m * Y[q * MAX_TR + b];
+    }
+  for (int p = 0; p < 4; ++p) {
+    if (vw[p] <= 0.0) continue;
+    for (int q = 0; q < 4; ++q) {
+      if (lw[q] <= 0.0) continue;
+      float x = 0.0;
+      for (int a = 0; a < Rv; ++a) x += fetch(view, oV + vi[p] * Rv + a) * MY[q * MAX_TR + a];
+      val[p * 4 + q] = x;
+    }
+  }
+}
+vec3 decodeTensorTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO,
+                        float phiO) {
+  int li[4], vi[4];
+  float lw[4], vw[4];
+  interpolateDirs(thetaI, phiI, li, lw);
+  interpolateDirs(thetaO, phiO, vi, vw);
+  vec3 acc = vec3(0.0);
+  for (int k = 0; k < 4; ++k) {
+    if (tw[k] <= 0.0) continue;
+    int t = tt[k];
+    int cl = int(fetch(u_cluster, t * 3) + 0.5);
+    int cOff = int(fetch(u_cluster, t * 3 + 1) + 0.5);
+    int mOff = int(floor(fetch(u_cluster, t * 3 + 2) + 0.5));
+    // Channel 1 and 2 start after the earlier channels' coefficients and matrices.
+    int rt0 = tabInt(u_d0, cl, 2), rt1 = tabInt(u_d1, cl, 2);
+    int m0 = tabInt(u_d0, cl, 0) * tabInt(u_d0, cl, 1), m1 = tabInt(u_d1, cl, 0) * tabInt(u_d1, cl, 1);
+    float c0[16], c1[16], c2[16];
+    tensorPairs(u_a0, u_b0, u_c0buf, u_d0, t, cOff, mOff, vi, vw, li, lw, c0);
+    tensorPairs(u_a1, u_b1, u_c1buf, u_d1, t, cOff + rt0, mOff < 0 ? -1 : mOff + m0, vi, vw, li, lw, c1);
+    tensorPairs(u_a2, u_b2, u_c2buf, u_d2, t, cOff + rt0 + rt1, mOff < 0 ? -1 : mOff + m0 + m1, vi,
+                vw, li, lw, c2);
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        float w = vw[a] * lw[b];
+        if (w <= 0.0) continue;
+        vec3 c = vec3(c0[a * 4 + b], c1[a * 4 + b], c2[a * 4 + b]);
+        vec3 rgb = u_ycc == 1 ? vec3(c.x + c.y, c.x - c.y - c.z, c.x + c.z) : c;
+        acc += tw[k] * w * max(rgb, vec3(0.0));
+      }
+  }
+  return acc;
+}
+
 // At a tile position (x, y) in texel units, bilinear between texel centres (periodic).
 vec3 decodeAt(float x, float y, float thetaI, float phiI, float thetaO, float phiO) {
-  if (nmfFast()) {
+  if (nmfFast() || u_codec == 4) {
     float fx = x - 0.5, fy = y - 0.5;
     float x0 = floor(fx), y0 = floor(fy);
     float ax = fx - x0, ay = fy - y0;
@@ -198,6 +276,7 @@ vec3 decodeAt(float x, float y, float thetaI, float phiI, float thetaO, float ph
         tt[j * 2 + i] = u + u_nu * v;
         tw[j * 2 + i] = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
       }
+    if (u_codec == 4) return decodeTensorTexels(tt, tw, thetaI, phiI, thetaO, phiO);
     return decodeNmfTexels(tt, tw, thetaI, phiI, thetaO, phiO);
   }
   float fx = x - 0.5, fy = y - 0.5;

@@ -205,7 +205,8 @@ int App::startCodecSweep(const std::string& reference) {
     job->title = "compress + compare " + codec + " → " + out;
     last = jobs.submit(std::move(job));
   }
-  message("queued the four codecs at 1:" + std::to_string(int(form.targetRatio)));
+  message("queued the " + std::to_string(codecNames().size()) +
+          " codecs at 1:" + std::to_string(int(form.targetRatio)));
   return last;
 }
 

@@ -425,6 +425,7 @@ bool App::scriptStep() {
            const bool ok = checkGlsl(objectView(), c.value("samples", 256),
                                      c.value("tolerance", 0.02), &result);
            m_report["check_glsl"] = result;
+           m_report["check_glsl_" + objectView().insp.cbtf->codec] = result;
            if (!ok) return fail("GLSL decoder differs from the CPU decoder: " + result.dump());
            return std::nullopt;
          }},

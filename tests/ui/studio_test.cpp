@@ -2,6 +2,7 @@
 // edited and restored by undo, screenshots that are not blank with a known pixel, a simulation,
 // compression, comparison, study and export run to the end with every panel open, the GLSL
 // decoder checked against the CPU decoder, cancellation within a second, job errors, no display.
+#include <btf/compress/codec.h>
 #include <btf/io/image_io.h>
 #include <gtest/gtest.h>
 
@@ -132,7 +133,7 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   a.push_back({{"open_compressed", out + ".cbtf"}, {"reference", out + ".btf"}});
   a.push_back({{"compare", true}, {"wait", 300}});
   a.push_back({{"codec_sweep", out + ".btf"}, {"wait", 600}});
-  a.push_back({{"expect_codec_rows", 4}});
+  a.push_back({{"expect_codec_rows", int(codecNames().size())}});
   a.push_back({{"panel", "Inspector"}});
   a.push_back({{"screenshot", (dir / "inspector.png").string()}});
   a.push_back({{"check_glsl", {{"samples", 512}, {"tolerance", 2e-3}}}});
@@ -164,11 +165,17 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   for (const char* p : {"Scene", "Tile view", "Preview", "BRDF", "Jobs"})
     a.push_back({{"panel", p}});
   a.push_back({{"screenshot", (dir / "jobs.png").string()}});
+  // The tensor codec's GLSL decoder (the codec sweep wrote its file) against its CPU decoder.
+  a.push_back({{"open_compressed", out + ".tensor.cbtf"}, {"reference", out + ".btf"}});
+  a.push_back({{"check_glsl", {{"samples", 512}, {"tolerance", 2e-3}}}});
   a.push_back({{"report", (dir / "report.json").string()}});
   std::string log;
   ASSERT_EQ(runStudio(a, dir, &log), 0) << log;
   const json r = json::parse(readFile(dir / "report.json"));
-  const json g = r.at("check_glsl");
+  const json gt = r.at("check_glsl_tensor");
+  EXPECT_GT(gt["peak"].get<double>(), 0.01);
+  EXPECT_LE(gt["max_rel_to_peak"].get<double>(), 2e-3) << gt.dump();
+  const json g = r.at("check_glsl_nmf");
   EXPECT_EQ(g["samples"], 512);
   EXPECT_GT(g["peak"].get<double>(), 0.01);
   EXPECT_LE(g["max_rel_to_peak"].get<double>(), 2e-3) << g.dump();

@@ -32,21 +32,33 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog) {
   const CompressedBtf& c = *app.insp.cbtf;
   if (o.bound != app.insp.compressed) {
     o.buffers.clear();
-    auto add = [&](const std::string& name) {
+    auto addData = [&](const float* data, size_t n, bool half) {
       auto b = std::make_unique<gl::TextureBuffer>();
-      if (c.hasArray(name)) {
-        const CArray& a = c.array(name);
-        b->set(a.data.data(), a.data.size(), a.type == ArrayType::F16);
-      } else {
-        const float zero = 0;
+      const float zero = 0;
+      if (n > 0)
+        b->set(data, n, half);
+      else
         b->set(&zero, 1, false);
-      }
       o.buffers.push_back(std::move(b));
     };
+    auto add = [&](const std::string& name) {
+      if (c.hasArray(name)) {
+        const CArray& a = c.array(name);
+        addData(a.data.data(), a.data.size(), a.type == ArrayType::F16);
+      } else {
+        addData(nullptr, 0, false);
+      }
+    };
+    // tensor: derived tables (offsets, per-texel matrices up to 64 MiB) beside the arrays.
+    const TensorGpuTables tables =
+        c.codec == "tensor" ? tensorGpuTables(c, uint64_t(16) << 20) : TensorGpuTables{};
     for (int ch = 0; ch < 3; ++ch) {
       if (c.codec == "nmf") {
         for (const char* w : {"basis_view", "basis_light", "coef_view", "coef_light"})
           add(channelArray(ch, w));
+      } else if (c.codec == "tensor") {
+        for (const char* w : {"view", "light", "core"}) add(channelArray(ch, w));
+        addData(tables.clusters[ch].data(), tables.clusters[ch].size(), false);
       } else {
         add(channelArray(ch, "basis"));
         add(channelArray(ch, "coef"));
@@ -54,7 +66,15 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog) {
         add("none");
       }
     }
-    add("cluster");
+    if (c.codec == "tensor") {
+      addData(tables.texels.data(), tables.texels.size(), false);
+      add("coef");
+      addData(tables.matrices.data(), tables.matrices.size(), false);
+    } else {
+      add("cluster");
+      add("none");
+      add("none");
+    }
     o.bound = app.insp.compressed;
   }
   prog.use();
@@ -65,20 +85,27 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog) {
     for (int k = 0; k < 4; ++k)
       prog.bindBuffer(names[ch][k], *o.buffers[size_t(ch * 4 + k)], ch * 4 + k);
   prog.bindBuffer("u_cluster", *o.buffers[12], 12);
+  // Units 14 and 15 (13 is the decoder check's queries).
+  prog.bindBuffer("u_tcoef", *o.buffers[13], 14);
+  prog.bindBuffer("u_tM", *o.buffers[14], 15);
   int c0[3] = {0, 0, 0}, c1[3] = {0, 0, 0}, k[3] = {0, 0, 0};
   for (int ch = 0; ch < 3; ++ch) {
     if (c.codec == "nmf") {
       c0[ch] = int(c.array(channelArray(ch, "basis_view")).cols);
       c1[ch] = int(c.array(channelArray(ch, "basis_light")).cols);
       k[ch] = c0[ch] > 0 ? int(c.array(channelArray(ch, "coef_view")).cols / c0[ch]) : 0;
-    } else {
+    } else if (c.codec != "tensor") {
       c0[ch] = int(c.array(channelArray(ch, "basis")).cols);
     }
   }
   prog.setInts("u_c0", c0, 3);
   prog.setInts("u_c1", c1, 3);
   prog.setInts("u_k", k, 3);
-  const int codec = c.codec == "nmf" ? 0 : c.codec == "svd" ? 1 : c.codec == "perview" ? 2 : 3;
+  const int codec = c.codec == "nmf"       ? 0
+                    : c.codec == "svd"     ? 1
+                    : c.codec == "perview" ? 2
+                    : c.codec == "lpca"    ? 3
+                                           : 4;
   prog.set("u_codec", codec);
   prog.set("u_ycc", c.colour == "ycc" ? 1 : 0);
   prog.set("u_nu", c.info.nu);

@@ -12,14 +12,15 @@
 namespace btf {
 
 const std::vector<std::string>& codecNames() {
-  static const std::vector<std::string> names = {"nmf", "svd", "perview", "lpca"};
+  static const std::vector<std::string> names = {"nmf", "svd", "perview", "lpca", "tensor"};
   return names;
 }
 
 void validate(const CodecSettings& s) {
   const auto& n = codecNames();
   if (std::find(n.begin(), n.end(), s.codec) == n.end())
-    throw Error("--codec: unknown codec '" + s.codec + "' (expected nmf, svd, perview or lpca)");
+    throw Error("--codec: unknown codec '" + s.codec +
+                "' (expected nmf, svd, perview, lpca or tensor)");
   if (s.colour != "rgb" && s.colour != "ycc")
     throw Error("--colour-model: '" + s.colour + "' (expected rgb or ycc)");
   if (s.components < 0) throw Error("--components: must be ≥ 0");
@@ -32,7 +33,7 @@ void validate(const CodecSettings& s) {
   if (s.maxRank < 1 || s.maxRank > 64) throw Error("--max-rank: must be in [1, 64]");
   if (s.nmfIterations < 1) throw Error("--nmf-iterations: must be ≥ 1");
   if (s.trainTexels < 1) throw Error("--train-texels: must be ≥ 1");
-  if (s.clusters < 1) throw Error("--clusters: must be ≥ 1");
+  if (s.clusters < 0) throw Error("--clusters: must be ≥ 0 (0 = the codec's default)");
 }
 
 std::string settingsJson(const CodecSettings& s) {
@@ -51,7 +52,8 @@ std::string settingsJson(const CodecSettings& s) {
     j["nmf_tolerance"] = s.nmfTolerance;
   } else {
     j["train_texels"] = s.trainTexels;
-    if (s.codec == "lpca") j["clusters"] = s.clusters;
+    if (s.codec == "lpca") j["clusters"] = s.clusters > 0 ? s.clusters : 8;
+    if (s.codec == "tensor") j["clusters"] = s.clusters;  // 0: √(texels / 2), see clusters_used
   }
   j["precision"] = s.half ? "f16" : "f32";
   j["seed"] = s.seed;
@@ -136,6 +138,7 @@ std::unique_ptr<Encoder> makeEncoder(const CodecSettings& s, const BtfInfo& info
   if (s.codec == "nmf") return makeNmfEncoder(s, info, cancel);
   if (s.codec == "svd") return makeSvdEncoder(s, info, cancel);
   if (s.codec == "perview") return makePerViewEncoder(s, info, cancel);
+  if (s.codec == "tensor") return makeTensorEncoder(s, info, cancel);
   return makeLpcaEncoder(s, info, cancel);
 }
 
@@ -147,10 +150,12 @@ std::unique_ptr<Decoder> makeDecoder(CompressedBtf c) {
     if (c.codec == "svd") return makeSvdDecoder(std::move(c));
     if (c.codec == "perview") return makePerViewDecoder(std::move(c));
     if (c.codec == "lpca") return makeLpcaDecoder(std::move(c));
+    if (c.codec == "tensor") return makeTensorDecoder(std::move(c));
   } catch (const Error& e) {
     throw Error(where + ": " + e.what());
   }
-  throw Error(where + ": unknown codec '" + c.codec + "' (expected nmf, svd, perview or lpca)");
+  throw Error(where + ": unknown codec '" + c.codec +
+              "' (expected nmf, svd, perview, lpca or tensor)");
 }
 
 // ------------------------------------------------------------------ Decoder

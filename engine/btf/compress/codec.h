@@ -19,7 +19,7 @@ namespace btf {
 class ProgressReporter;
 
 struct CodecSettings {
-  std::string codec = "nmf";   // nmf | svd | perview | lpca
+  std::string codec = "nmf";   // nmf | svd | perview | lpca | tensor
   std::string colour = "ycc";  // rgb | ycc (Y = mean of RGB, U = R − Y, V = B − Y)
   // Components: explicit (> 0) or from a target (relative RMSE or ratio); else the default
   // target below.
@@ -35,7 +35,7 @@ struct CodecSettings {
   double nmfTolerance = 1e-4;
   // Baselines.
   int trainTexels = 256;      // stratified training subset (per-view, global SVD, clustered PCA)
-  int clusters = 8;           // clustered PCA
+  int clusters = 0;           // lpca, tensor (0 = the codec's default: 8; √(texels / 2))
   bool half = true;           // f16 arrays (else f32)
   uint64_t memoryBudget = 0;  // > 0: compressStore refuses to start beyond it
   uint64_t seed = 1;
@@ -103,6 +103,18 @@ class Decoder {
 };
 
 std::unique_ptr<Decoder> makeDecoder(CompressedBtf c);
+
+/// What a GLSL tensor decoder needs beside the file's arrays (shaders/btf_decode.glsl), derived
+/// from them as the CPU decoder does: per texel (cluster, offset of its coefficients, offset of
+/// its Rv × Rl matrices in `matrices` or −1), per channel and cluster (Rv, Rl, Rt, offsets of the
+/// cluster's view, light and core blocks), and the per-texel matrices when they fit in
+/// maxMatrixFloats (and 2^24, the floats' exact integers); else `matrices` is empty.
+struct TensorGpuTables {
+  std::vector<float> texels;
+  std::vector<float> clusters[3];
+  std::vector<float> matrices;
+};
+TensorGpuTables tensorGpuTables(const CompressedBtf& c, uint64_t maxMatrixFloats);
 /// Opens a raw store or a compressed file (by magic bytes) behind the Decoder API.
 std::unique_ptr<Decoder> openBtf(const std::string& path);
 
@@ -112,7 +124,10 @@ std::unique_ptr<Encoder> makeSvdEncoder(const CodecSettings&, const BtfInfo&, co
 std::unique_ptr<Encoder> makePerViewEncoder(const CodecSettings&, const BtfInfo&,
                                             const CancelToken*);
 std::unique_ptr<Encoder> makeLpcaEncoder(const CodecSettings&, const BtfInfo&, const CancelToken*);
+std::unique_ptr<Encoder> makeTensorEncoder(const CodecSettings&, const BtfInfo&,
+                                           const CancelToken*);
 std::unique_ptr<Decoder> makeNmfDecoder(CompressedBtf c);
+std::unique_ptr<Decoder> makeTensorDecoder(CompressedBtf c);
 std::unique_ptr<Decoder> makeSvdDecoder(CompressedBtf c);
 std::unique_ptr<Decoder> makePerViewDecoder(CompressedBtf c);
 std::unique_ptr<Decoder> makeLpcaDecoder(CompressedBtf c);

@@ -336,6 +336,7 @@ class LpcaEncoder final : public TrainedEncoder {
 
  protected:
   static CodecSettings adjusted(CodecSettings s) {
+    if (s.clusters == 0) s.clusters = 8;
     // Enough training texels for every cluster to get a basis.
     s.trainTexels = std::max(s.trainTexels, 16 * s.clusters);
     return s;

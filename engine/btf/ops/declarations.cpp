@@ -75,11 +75,12 @@ Opts sceneOptions() {
       en("sampling", "adaptive", {"adaptive", "uniform"},
          "adaptive: 2×2 samples per texel refined up to --max-spp where they disagree; uniform: "
          "K×K (--spp; giving --spp alone selects it) (scene)"),
-      in("max_spp", 8, 2, 64, "adaptive: finest level, K×K samples per texel (power of two) (scene)"),
+      in("max_spp", 8, 2, 64,
+         "adaptive: finest level, K×K samples per texel (power of two) (scene)"),
       in("spp", 1, 1, 64, "uniform: K×K jittered rays per texel (scene)"),
       en("shadows", "map", {"map", "rays"}, "self-shadowing: shadow map or exact rays (scene)")};
 }
-const std::set<std::string> kSceneKeys = {"dirs",    "texels", "spp",     "shadows",
+const std::set<std::string> kSceneKeys = {"dirs",     "texels",  "spp",  "shadows",
                                           "sampling", "max_spp", "seed", "method"};
 
 Opts effectOptions() {
@@ -112,8 +113,8 @@ Opts effectOptions() {
 Opts codecOptions(bool withName) {
   Opts o;
   if (withName)
-    o.push_back(en("codec", "nmf", {"nmf", "svd", "perview", "lpca"},
-                   "nmf (per-texel NMF + PCA), svd, perview or lpca"));
+    o.push_back(en("codec", "nmf", {"nmf", "svd", "perview", "lpca", "tensor"},
+                   "nmf (per-texel NMF + PCA), svd, perview, lpca or tensor (clustered Tucker)"));
   append(o, {
                 en("colour_model", "ycc", {"ycc", "rgb"},
                    "rgb or ycc (luminance + two chroma channels)"),
@@ -127,8 +128,10 @@ Opts codecOptions(bool withName) {
                    "nmf: hals or mu (Lee-Seung multiplicative updates)"),
                 in("max_rank", 8, 1, 64, "nmf: largest per-texel rank"),
                 in("nmf_iterations", 60, 1, 10000, "nmf: iterations per texel at most"),
-                in("train_texels", 256, 1, 1 << 20, "svd/perview/lpca: training texels"),
-                in("clusters", 8, 1, 4096, "lpca: k-means clusters"),
+                in("train_texels", 256, 1, 1 << 20,
+                   "svd/perview/lpca/tensor: training texels (tensor: at least 32 per cluster)"),
+                in("clusters", 0, 0, 4096,
+                   "lpca, tensor: k-means clusters (0 = lpca 8, tensor √(texels/2))"),
                 flag("f32", "store float32 arrays instead of float16"),
             });
   return o;
@@ -153,9 +156,10 @@ std::vector<CommandDecl> build() {
             in("chunk_texels", 0, 0, 1 << 30,
                "at most this many texels per chunk (resume granularity; 0 = from the budget)")});
     append(c.options, effectOptions());
-    append(c.options, {str("compress", "",
-                           "compress while simulating with this codec (nmf, svd, perview, lpca); "
-                           "the output is a .cbtf and no raw BTF is written")});
+    append(c.options,
+           {str("compress", "",
+                "compress while simulating with this codec (nmf, svd, perview, lpca, tensor); "
+                "the output is a .cbtf and no raw BTF is written")});
     append(c.options, codecOptions(false));
     append(c.options, {flag("resume", "continue an interrupted run from OUTPUT.partial")});
     cs.push_back(c);

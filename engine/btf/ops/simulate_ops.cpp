@@ -85,7 +85,8 @@ void simulate(const Call& c) {
   if (!codec.empty()) {
     const auto& names = codecNames();
     if (std::find(names.begin(), names.end(), codec) == names.end())
-      throw Error("--compress: unknown codec '" + codec + "' (expected nmf, svd, perview or lpca)");
+      throw Error("--compress: unknown codec '" + codec +
+                  "' (expected nmf, svd, perview, lpca or tensor)");
   }
   SimulationJob job(scene, o);
   job.setCancel(c.ctx.cancel);

@@ -158,7 +158,7 @@ TEST(CliConventions, ArgumentErrorsAreOneLineWithTheOptionAndItsRange) {
       {"simulate " + brick + " -o x.btf --spp 0", "--spp: must be in 1..64 (got 0)"},
       {"simulate " + brick + " -o x.btf --links 0", "--links: must be in 1..256 (got 0)"},
       {"simulate " + brick + " -o x.btf --shadows soft", "--shadows: must be one of map, rays"},
-      {"compress x.btf -o y.cbtf --codec zip", "--codec: must be one of nmf, svd, perview, lpca"},
+      {"compress x.btf -o y.cbtf --codec zip", "--codec: must be one of nmf, svd, perview, lpca, tensor"},
       {"export x.btf -o y --format obj", "--format: must be one of ubo2003, ubo2014, merl"},
       {"simulate " + brick, "--output is required"},
       {"slice x.btf -o x.tif --light 1,2 --view 0,0", "x.btf"},

@@ -1,0 +1,756 @@
+// The clustered tensor codec (thesis §4.4.2; docs/compression.md "tensor"): texels are
+// clustered by IRP k-means on sign sketches of their whole aBRDF; per cluster and colour
+// channel, the views × lights × texels tensor is factorised as a Tucker model — view and light
+// bases from HOSVD refined by HOOI sweeps on the training texels, then every texel projected on
+// them as it streams in, and at the end a texel-mode basis ("core") per cluster from all of its
+// texels. Ranks per (cluster, channel, mode) are chosen greedily by energy per byte toward
+// the ratio or error target.
+//
+// Arrays (K clusters, n directions; flat arrays are N × 1, row-major inside each block):
+//   cluster            texels × 1 (f16 when K ≤ 2048: exact integers), the texel's cluster
+//   c{c}.ranks         K × 3 f32: Rv, Rl, Rt of cluster k (0 = the channel is zero there)
+//   c{c}.view          Σ_k n·Rv_k: cluster k's block at Σ_{j<k} n·Rv_j, element v·Rv + a
+//   c{c}.light         Σ_k n·Rl_k: likewise, element l·Rl + b
+//   c{c}.core          Σ_k Rt·Rv·Rl: element (j·Rv + a)·Rl + b (texel factor j)
+//   coef               Σ_t Σ_c Rt_{k(t),c}: texel t's coefficients in texel order, channel 0's
+//                      Rt first; a texel's offset is the sum over earlier texels (decoders derive
+//                      it from the cluster array)
+//   value_c(t, v, l) = Σ_j coef_t[j] Σ_a Σ_b view[v, a] core[j, a, b] light[l, b]
+#include <btf/core/error.h>
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <nlohmann/json.hpp>
+
+#include "codec.h"
+#include "tensor.h"
+
+namespace btf {
+namespace {
+
+constexpr int kMaxRv = 64, kMaxRl = 64, kMaxRt = 32;  // the GLSL decoder's arrays
+constexpr int kSketchDim = 64;
+constexpr int kHooiSweeps = 2;
+
+struct Ranks {
+  int v = 0, l = 0, t = 0;
+};
+
+double tail(const la::VecD& e, int r) {
+  double s = 0;
+  for (int64_t i = r; i < e.size(); ++i) s += e[i];
+  return s;
+}
+double at(const la::VecD& e, int r) {
+  return r < e.size() ? e[r] : 0.0;
+}
+float roundStored(float x, bool half) {
+  return half ? la::halfToFloat(la::floatToHalf(x)) : x;
+}
+
+class TensorEncoder final : public Encoder {
+ public:
+  TensorEncoder(const CodecSettings& s, const BtfInfo& info, const CancelToken* cancel)
+      : m_s(s),
+        m_info(info),
+        m_cancel(cancel),
+        m_n(info.nDirs()),
+        m_T(info.texels()),
+        m_sketch(int64_t(info.nDirs()) * info.nDirs() * 3, kSketchDim, s.seed ^ 0x7e45a) {
+    m_K = int(std::min<int64_t>(m_T, s.clusters > 0 ? s.clusters : autoClusters(m_T)));
+    // Training texels: enough for every cluster's bases (32 each), within a quarter of the
+    // memory budget.
+    const uint64_t perTexel = uint64_t(m_n) * m_n * 3 * 4;
+    int64_t want = std::max<int64_t>(s.trainTexels, int64_t(32) * m_K);
+    if (s.memoryBudget > 0)
+      want = std::min<int64_t>(want, std::max<int64_t>(1, int64_t(s.memoryBudget / 4 / perTexel)));
+    const int64_t m = std::min<int64_t>(m_T, want);
+    m_K = int(std::max<int64_t>(1, std::min<int64_t>(m_K, m)));
+    m_train = stratifiedTexels(info.nu, info.nv, int(m), s.seed);
+    m_done.assign(size_t(m_T), 0);
+    m_cluster.assign(size_t(m_T), 0);
+    m_S.resize(size_t(m_T));
+    m_energy.assign(size_t(m_T) * 3, 0.0);
+    m_projected.assign(size_t(m_T) * 3, 0.0);
+  }
+
+  static int64_t autoClusters(int64_t T) {
+    return std::max<int64_t>(1, std::llround(std::sqrt(double(T) / 2)));
+  }
+
+  std::vector<int64_t> trainingTexels() const override { return m_train; }
+
+  uint64_t memoryBytes() const override {
+    const uint64_t train = uint64_t(m_train.size()) * m_n * m_n * 3 * 4;
+    const uint64_t proj = uint64_t(m_T) * 3 * kMaxRv * kMaxRl * 4 + uint64_t(m_T) * 64;
+    return train + proj;
+  }
+
+  void train(const float* values) override {
+    const int64_t m = int64_t(m_train.size());
+    const size_t stride = size_t(m_n) * m_n * 3;
+    std::vector<la::MatF> X(size_t(m) * 3);
+    la::MatF sk(kSketchDim, m);
+    parallelForChunks(
+        m, 1,
+        [&](int64_t b, int64_t e) {
+          std::vector<float> conv(stride);
+          for (int64_t i = b; i < e; ++i) {
+            toMatrices(values + size_t(i) * stride, conv.data(), &X[size_t(i) * 3]);
+            m_sketch.apply(conv.data(), sk.col(i).data());
+          }
+        },
+        m_cancel);
+    const la::KMeansResult km = la::irpKMeans(sk, m_K, m_s.seed);
+    m_centres = km.centres;
+    m_K = int(m_centres.cols());
+    m_irpDims = km.dims;
+    m_reseeds = km.reseeds;
+    std::vector<std::vector<int64_t>> members(static_cast<size_t>(m_K));
+    for (int64_t i = 0; i < m; ++i) members[size_t(km.assign[size_t(i)])].push_back(i);
+
+    // Spectra per (cluster, channel), scaled to the cluster's estimated share of all texels.
+    const size_t KC = size_t(m_K) * 3;
+    std::vector<la::ModeSpectra> spec(KC);
+    std::vector<double> scale(KC, 0), estTexels(size_t(m_K), 0);
+    for (int k = 0; k < m_K; ++k)
+      estTexels[size_t(k)] = double(m_T) * double(members[size_t(k)].size()) / double(m);
+    parallelForChunks(
+        int64_t(KC), 1,
+        [&](int64_t b, int64_t e) {
+          for (int64_t kc = b; kc < e; ++kc) {
+            const int k = int(kc / 3), c = int(kc % 3);
+            spec[size_t(kc)] = la::modeSpectra(slices(X, members[size_t(k)], c));
+            scale[size_t(kc)] = members[size_t(k)].empty()
+                                    ? 0.0
+                                    : estTexels[size_t(k)] / double(members[size_t(k)].size());
+          }
+        },
+        m_cancel);
+    m_ranks.assign(KC, Ranks{});
+    chooseTrainingRanks(spec, scale, estTexels);
+    // HOOI on the training texels at the chosen ranks: the view and light bases.
+    m_Uv.assign(KC, la::MatF());
+    m_Ul.assign(KC, la::MatF());
+    std::vector<double> err(KC, 0), energy(KC, 0);
+    parallelForChunks(
+        int64_t(KC), 1,
+        [&](int64_t b, int64_t e) {
+          for (int64_t kc = b; kc < e; ++kc) {
+            const int k = int(kc / 3), c = int(kc % 3);
+            Ranks& r = m_ranks[size_t(kc)];
+            const auto sl = slices(X, members[size_t(k)], c);
+            for (const la::MatF* a : sl) energy[size_t(kc)] += a->cast<double>().squaredNorm();
+            if (r.v == 0) continue;
+            const la::Tucker3 t = la::hooi(sl, r.v, r.l, r.t, kHooiSweeps);
+            err[size_t(kc)] = t.error;
+            m_Uv[size_t(kc)] = quantized(t.Uv);
+            m_Ul[size_t(kc)] = quantized(t.Ul);
+            r.v = int(t.Uv.cols());
+            r.l = int(t.Ul.cols());
+          }
+        },
+        m_cancel);
+    double e = 0, tot = 0;
+    for (size_t kc = 0; kc < KC; ++kc) e += err[kc], tot += energy[kc];
+    m_trainRel = tot > 0 ? std::sqrt(e / tot) : 0;
+    m_trained = true;
+  }
+
+  void add(int64_t t0, int64_t t1, const float* values) override {
+    if (!m_trained) throw Error("tensor encoder: add() before train()");
+    const size_t stride = size_t(m_n) * m_n * 3;
+    parallelForChunks(
+        t1 - t0, 1,
+        [&](int64_t b, int64_t e) {
+          std::vector<float> conv(stride), sk(kSketchDim);
+          la::MatF A[3];
+          for (int64_t i = b; i < e; ++i) {
+            const int64_t t = t0 + i;
+            toMatrices(values + size_t(i) * stride, conv.data(), A);
+            m_sketch.apply(conv.data(), sk.data());
+            const int k = la::nearestCentre(m_centres, sk.data());
+            m_cluster[size_t(t)] = k;
+            std::vector<float>& S = m_S[size_t(t)];
+            S.clear();
+            for (int c = 0; c < 3; ++c) {
+              const size_t kc = size_t(k) * 3 + size_t(c);
+              m_energy[size_t(t) * 3 + size_t(c)] = A[c].cast<double>().squaredNorm();
+              const Ranks& r = m_ranks[kc];
+              if (r.v == 0) continue;
+              const la::MatF P = m_Uv[kc].transpose() * A[c] * m_Ul[kc];  // Rv × Rl
+              double p2 = 0;
+              for (int a = 0; a < r.v; ++a)
+                for (int bb = 0; bb < r.l; ++bb) {
+                  S.push_back(P(a, bb));
+                  p2 += double(P(a, bb)) * P(a, bb);
+                }
+              m_projected[size_t(t) * 3 + size_t(c)] = p2;
+            }
+            m_done[size_t(t)] = 1;
+          }
+        },
+        m_cancel);
+  }
+
+  CompressedBtf finish() override {
+    for (int64_t t = 0; t < m_T; ++t)
+      if (!m_done[size_t(t)])
+        throw Error("tensor encoder: texel " + std::to_string(t) + " was never added");
+    const size_t KC = size_t(m_K) * 3;
+    std::vector<std::vector<int64_t>> members(static_cast<size_t>(m_K));
+    for (int64_t t = 0; t < m_T; ++t) members[size_t(m_cluster[size_t(t)])].push_back(t);
+    // Texel mode per (cluster, channel): eigen-decomposition of the projected texels' Gram
+    // matrix, accumulated in texel order (the same bits for any chunking of the stream).
+    std::vector<la::VecD> lam(KC);
+    std::vector<Eigen::MatrixXd> vec(KC);
+    parallelForChunks(
+        int64_t(KC), 1,
+        [&](int64_t b, int64_t e) {
+          for (int64_t kc = b; kc < e; ++kc) {
+            const int k = int(kc / 3), c = int(kc % 3);
+            const Ranks& r = m_ranks[size_t(kc)];
+            const int64_t d = int64_t(r.v) * r.l;
+            if (d == 0) continue;
+            const auto& mem = members[size_t(k)];
+            Eigen::MatrixXd Z(d, int64_t(mem.size()));
+            for (size_t i = 0; i < mem.size(); ++i) {
+              const float* s = m_S[size_t(mem[i])].data() + offsetInS(k, c);
+              for (int64_t q = 0; q < d; ++q) Z(q, int64_t(i)) = s[q];
+            }
+            // One GEMM of sizes fixed by the data (not by the stream's chunking).
+            const Eigen::MatrixXd G = Z * Z.transpose();
+            la::symmetricEigen(G, lam[size_t(kc)], vec[size_t(kc)]);
+          }
+        },
+        m_cancel);
+    chooseTexelRanks(lam, members);
+
+    CompressedBtf out;
+    out.info = m_info;
+    out.codec = "tensor";
+    out.colour = m_s.colour;
+    const ArrayType type = m_s.half ? ArrayType::F16 : ArrayType::F32;
+    CArray& cl = out.add("cluster", m_K <= 2048 ? ArrayType::F16 : ArrayType::F32, m_T, 1);
+    for (int64_t t = 0; t < m_T; ++t) cl.data[size_t(t)] = float(m_cluster[size_t(t)]);
+    std::vector<la::MatF> E(KC);  // stored cores, (Rv·Rl) × Rt, row a·Rl + b
+    int64_t coefRows = 0;
+    for (int64_t t = 0; t < m_T; ++t)
+      for (int c = 0; c < 3; ++c) coefRows += m_ranks[size_t(m_cluster[size_t(t)]) * 3 + c].t;
+    for (int c = 0; c < 3; ++c) {
+      CArray& rk = out.add(channelArray(c, "ranks"), ArrayType::F32, m_K, 3);
+      int64_t nv = 0, nl = 0, nc = 0;
+      for (int k = 0; k < m_K; ++k) {
+        const Ranks& r = m_ranks[size_t(k) * 3 + size_t(c)];
+        rk.data[size_t(k) * 3 + 0] = float(r.v);
+        rk.data[size_t(k) * 3 + 1] = float(r.l);
+        rk.data[size_t(k) * 3 + 2] = float(r.t);
+        nv += int64_t(m_n) * r.v;
+        nl += int64_t(m_n) * r.l;
+        nc += int64_t(r.t) * r.v * r.l;
+      }
+      CArray& av = out.add(channelArray(c, "view"), type, nv, 1);
+      CArray& al = out.add(channelArray(c, "light"), type, nl, 1);
+      CArray& ac = out.add(channelArray(c, "core"), type, nc, 1);
+      int64_t ov = 0, ol = 0, oc = 0;
+      for (int k = 0; k < m_K; ++k) {
+        const size_t kc = size_t(k) * 3 + size_t(c);
+        const Ranks& r = m_ranks[kc];
+        for (int v = 0; v < m_n; ++v)
+          for (int a = 0; a < r.v; ++a) av.data[size_t(ov++)] = m_Uv[kc](v, a);
+        for (int l = 0; l < m_n; ++l)
+          for (int b = 0; b < r.l; ++b) al.data[size_t(ol++)] = m_Ul[kc](l, b);
+        // The core: the top Rt texel-mode eigenvectors, rows in S's order (a·Rl + b).
+        const int64_t d = int64_t(r.v) * r.l;
+        E[kc] = la::MatF(d, r.t);
+        for (int j = 0; j < r.t; ++j)
+          for (int64_t q = 0; q < d; ++q) {
+            const float x = roundStored(float(vec[kc](q, j)), m_s.half);
+            E[kc](q, j) = x;
+            ac.data[size_t(oc++)] = x;
+          }
+      }
+    }
+    // Coefficients fitted to the stored core (least squares on its Gram matrix).
+    std::vector<la::MatF> gramInv(KC);
+    for (size_t kc = 0; kc < KC; ++kc)
+      if (m_ranks[kc].t > 0)
+        gramInv[kc] = (E[kc].transpose() * E[kc])
+                          .ldlt()
+                          .solve(la::MatF::Identity(m_ranks[kc].t, m_ranks[kc].t));
+    CArray& co = out.add("coef", type, coefRows, 1);
+    std::vector<int64_t> offset(size_t(m_T) + 1, 0);
+    for (int64_t t = 0; t < m_T; ++t) {
+      int64_t n = 0;
+      for (int c = 0; c < 3; ++c) n += m_ranks[size_t(m_cluster[size_t(t)]) * 3 + size_t(c)].t;
+      offset[size_t(t) + 1] = offset[size_t(t)] + n;
+    }
+    parallelForChunks(m_T, 64, [&](int64_t b, int64_t e) {
+      for (int64_t t = b; t < e; ++t) {
+        const int k = m_cluster[size_t(t)];
+        int64_t o = offset[size_t(t)];
+        for (int c = 0; c < 3; ++c) {
+          const size_t kc = size_t(k) * 3 + size_t(c);
+          const Ranks& r = m_ranks[kc];
+          if (r.t == 0) continue;
+          const Eigen::Map<const la::VecF> s(m_S[size_t(t)].data() + offsetInS(k, c),
+                                             int64_t(r.v) * r.l);
+          const la::VecF u = gramInv[kc] * (E[kc].transpose() * s);
+          for (int j = 0; j < r.t; ++j) co.data[size_t(o++)] = u[j];
+        }
+      }
+    });
+    out.quantize();
+
+    // Errors before quantisation: the view/light projection (exact per texel) and the dropped
+    // texel-mode eigenvalues.
+    double energy = 0, proj = 0, kept = 0;
+    for (size_t i = 0; i < m_energy.size(); ++i) energy += m_energy[i], proj += m_projected[i];
+    for (size_t kc = 0; kc < KC; ++kc)
+      for (int j = 0; j < m_ranks[kc].t; ++j) kept += at(lam[kc], j);
+    nlohmann::ordered_json params = nlohmann::ordered_json::parse(settingsJson(m_s));
+    params["clusters_used"] = m_K;
+    params["training_texels"] = m_train.size();
+    params["sketch_dim"] = kSketchDim;
+    params["irp_dims"] = m_irpDims;
+    params["hooi_sweeps"] = kHooiSweeps;
+    params["empty_cluster_reseeds"] = m_reseeds;
+    nlohmann::ordered_json rj = nlohmann::ordered_json::array();
+    for (int c = 0; c < 3; ++c) {
+      int64_t sv = 0, sl = 0, st = 0, used = 0;
+      for (int k = 0; k < m_K; ++k) {
+        const Ranks& r = m_ranks[size_t(k) * 3 + size_t(c)];
+        if (r.v == 0) continue;
+        sv += r.v, sl += r.l, st += r.t, ++used;
+      }
+      nlohmann::ordered_json cj;
+      cj["channel"] = c;
+      cj["clusters_coded"] = used;
+      cj["mean_ranks"] = {used ? double(sv) / double(used) : 0.0,
+                          used ? double(sl) / double(used) : 0.0,
+                          used ? double(st) / double(used) : 0.0};
+      rj.push_back(cj);
+    }
+    params["channels"] = rj;
+    out.paramsJson = params.dump();
+    nlohmann::ordered_json st;
+    st["training_relative_rmse"] = m_trainRel;
+    st["projection_relative_rmse"] =
+        energy > 0 ? std::sqrt(std::max(0.0, energy - proj) / energy) : 0.0;
+    st["relative_rmse_estimate"] =
+        energy > 0 ? std::sqrt(std::max(0.0, energy - kept) / energy) : 0.0;
+    out.statsJson = st.dump();
+    return out;
+  }
+
+ private:
+  la::MatF quantized(la::MatF M) const {
+    for (int64_t i = 0; i < M.size(); ++i) M.data()[i] = roundStored(M.data()[i], m_s.half);
+    return M;
+  }
+
+  // Texel values ([view][light][rgb]) → colour-converted copy (same layout) and the three
+  // channel matrices (views × lights).
+  void toMatrices(const float* x, float* conv, la::MatF* A) const {
+    for (int c = 0; c < 3; ++c) A[c].resize(m_n, m_n);
+    for (int v = 0; v < m_n; ++v)
+      for (int l = 0; l < m_n; ++l) {
+        const size_t o = (size_t(v) * m_n + l) * 3;
+        float col[3];
+        toColour(m_s.colour, x + o, col);
+        for (int c = 0; c < 3; ++c) {
+          const float y = std::isfinite(col[c]) ? col[c] : 0.f;
+          conv[o + size_t(c)] = y;
+          A[c](v, l) = y;
+        }
+      }
+  }
+
+  static std::vector<const la::MatF*> slices(const std::vector<la::MatF>& X,
+                                             const std::vector<int64_t>& idx, int c) {
+    std::vector<const la::MatF*> s;
+    for (int64_t i : idx) s.push_back(&X[size_t(i) * 3 + size_t(c)]);
+    return s;
+  }
+
+  int64_t offsetInS(int k, int c) const {
+    int64_t o = 0;
+    for (int q = 0; q < c; ++q) {
+      const Ranks& r = m_ranks[size_t(k) * 3 + size_t(q)];
+      o += int64_t(r.v) * r.l;
+    }
+    return o;
+  }
+
+  double scalarBytes() const { return m_s.half ? 2 : 4; }
+  double rawBytes() const { return double(m_T) * m_n * m_n * 12.0; }
+  double fixedBytes() const {
+    return 65536.0 + double(m_T) * (m_K <= 2048 ? 2 : 4) + 3.0 * m_K * 3 * 4;
+  }
+
+  // Ranks (Rv, Rl, planned Rt) per (cluster, channel) from the training spectra: explicit
+  // (--components caps every mode), or greedy by estimated energy per byte (HOSVD bound: the
+  // dropped eigenvalues of the three modes) until the ratio's byte budget is spent or the
+  // estimated error reaches the target.
+  void chooseTrainingRanks(const std::vector<la::ModeSpectra>& spec,
+                           const std::vector<double>& scale, const std::vector<double>& estTexels) {
+    const size_t KC = spec.size();
+    auto capV = [&](size_t kc) {
+      return int(std::min<int64_t>(kMaxRv, std::min<int64_t>(m_n, spec[kc].view.size())));
+    };
+    auto capT = [&](size_t kc) { return int(std::min<int64_t>(kMaxRt, spec[kc].texel.size())); };
+    if (m_s.components > 0) {
+      for (size_t kc = 0; kc < KC; ++kc) {
+        if (!(spec[kc].energy > 0)) continue;
+        Ranks& r = m_ranks[kc];
+        r.v = r.l = std::min(m_s.components, capV(kc));
+        r.t = std::min({m_s.components, capT(kc), r.v * r.l});
+      }
+      return;
+    }
+    const double sb = scalarBytes();
+    double total = 0;
+    for (size_t kc = 0; kc < KC; ++kc) total += scale[kc] * spec[kc].energy;
+    const bool byRatio = m_s.targetRatio > 0;
+    const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
+    double budget = byRatio ? rawBytes() / m_s.targetRatio - fixedBytes() : 0;
+    double err = 0;
+    auto cost = [&](size_t kc, int mode) {
+      const Ranks& r = m_ranks[kc];
+      const double Tk = estTexels[kc / 3];
+      if (mode == 0) return sb * (m_n + double(r.l) * r.t);
+      if (mode == 1) return sb * (m_n + double(r.v) * r.t);
+      return sb * (Tk + double(r.v) * r.l);
+    };
+    for (size_t kc = 0; kc < KC; ++kc) {
+      if (!(spec[kc].energy > 0) || capV(kc) == 0 || capT(kc) == 0) continue;
+      m_ranks[kc] = Ranks{1, 1, 1};
+      budget -= sb * (2.0 * m_n + 1 + estTexels[kc / 3]);
+    }
+    auto gain = [&](size_t kc, int mode) {
+      const Ranks& r = m_ranks[kc];
+      const la::ModeSpectra& s = spec[kc];
+      if (mode == 0) return r.v < capV(kc) ? scale[kc] * at(s.view, r.v) : 0.0;
+      if (mode == 1) return r.l < capV(kc) ? scale[kc] * at(s.light, r.l) : 0.0;
+      return r.t < std::min(capT(kc), r.v * r.l) ? scale[kc] * at(s.texel, r.t) : 0.0;
+    };
+    for (size_t kc = 0; kc < KC; ++kc) {
+      const Ranks& r = m_ranks[kc];
+      if (r.v == 0) {
+        err += scale[kc] * spec[kc].energy;
+        continue;
+      }
+      err += scale[kc] *
+             (tail(spec[kc].view, r.v) + tail(spec[kc].light, r.l) + tail(spec[kc].texel, r.t));
+    }
+    for (;;) {
+      if (!byRatio && err <= target * target * total) break;
+      size_t bk = KC;
+      int bm = 0;
+      double best = 0;
+      for (size_t kc = 0; kc < KC; ++kc) {
+        if (m_ranks[kc].v == 0) continue;
+        for (int mode = 0; mode < 3; ++mode) {
+          const double g = gain(kc, mode), c = cost(kc, mode);
+          if (!(g > 0) || (byRatio && c > budget)) continue;
+          if (g / c > best) best = g / c, bk = kc, bm = mode;
+        }
+      }
+      if (bk == KC) break;
+      err -= gain(bk, bm);
+      budget -= cost(bk, bm);
+      Ranks& r = m_ranks[bk];
+      (bm == 0 ? r.v : bm == 1 ? r.l : r.t) += 1;
+    }
+  }
+
+  // Texel-mode ranks from the spectra of every texel's projection: explicit, or greedy with
+  // the bytes left after the bases (ratio), or until the error — the exact view/light
+  // projection error plus the dropped texel-mode eigenvalues — reaches the target.
+  void chooseTexelRanks(const std::vector<la::VecD>& lam,
+                        const std::vector<std::vector<int64_t>>& members) {
+    const size_t KC = lam.size();
+    auto cap = [&](size_t kc) {
+      const Ranks& r = m_ranks[kc];
+      return int(std::min<int64_t>(
+          {kMaxRt, int64_t(r.v) * r.l, int64_t(members[kc / 3].size()), lam[kc].size()}));
+    };
+    // A cluster no texel chose codes nothing (its S offsets are never read again).
+    for (size_t kc = 0; kc < KC; ++kc)
+      if (members[kc / 3].empty()) m_ranks[kc] = Ranks{};
+    if (m_s.components > 0) {
+      for (size_t kc = 0; kc < KC; ++kc) m_ranks[kc].t = std::min(m_s.components, cap(kc));
+      return;
+    }
+    const double sb = scalarBytes();
+    double energy = 0, proj = 0;
+    for (size_t i = 0; i < m_energy.size(); ++i) energy += m_energy[i], proj += m_projected[i];
+    const bool byRatio = m_s.targetRatio > 0;
+    const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
+    double budget = rawBytes() / (byRatio ? m_s.targetRatio : 1) - fixedBytes();
+    for (size_t kc = 0; kc < KC; ++kc) budget -= sb * m_n * double(m_ranks[kc].v + m_ranks[kc].l);
+    auto cost = [&](size_t kc) {
+      return sb * (double(members[kc / 3].size()) + double(m_ranks[kc].v) * m_ranks[kc].l);
+    };
+    double err = std::max(0.0, energy - proj);
+    for (size_t kc = 0; kc < KC; ++kc) {
+      m_ranks[kc].t = std::min(1, cap(kc));
+      if (m_ranks[kc].t) budget -= cost(kc);
+      err += tail(lam[kc], m_ranks[kc].t);
+    }
+    for (;;) {
+      if (!byRatio && err <= target * target * energy) break;
+      size_t bk = KC;
+      double best = 0;
+      for (size_t kc = 0; kc < KC; ++kc) {
+        if (m_ranks[kc].t == 0 || m_ranks[kc].t >= cap(kc)) continue;
+        const double g = at(lam[kc], m_ranks[kc].t), c = cost(kc);
+        if (!(g > 0) || (byRatio && c > budget)) continue;
+        if (g / c > best) best = g / c, bk = kc;
+      }
+      if (bk == KC) break;
+      err -= at(lam[bk], m_ranks[bk].t);
+      budget -= cost(bk);
+      ++m_ranks[bk].t;
+    }
+  }
+
+  CodecSettings m_s;
+  BtfInfo m_info;
+  const CancelToken* m_cancel;
+  int m_n;
+  int64_t m_T;
+  int m_K = 1;
+  la::SignSketch m_sketch;
+  std::vector<int64_t> m_train;
+  std::vector<uint8_t> m_done;
+  std::vector<int> m_cluster;
+  std::vector<std::vector<float>> m_S;  // per texel: Uvᵀ A_c Ul of each coded channel
+  std::vector<double> m_energy;         // per texel and channel: ‖A_c‖²
+  std::vector<double> m_projected;      // per texel and channel: ‖Uvᵀ A_c Ul‖²
+  la::MatF m_centres;
+  std::vector<Ranks> m_ranks;        // per (cluster, channel)
+  std::vector<la::MatF> m_Uv, m_Ul;  // per (cluster, channel), as stored
+  std::vector<int> m_irpDims;
+  int m_reseeds = 0;
+  double m_trainRel = 0;
+  bool m_trained = false;
+};
+
+// ------------------------------------------------------------------ decoder
+
+class TensorDecoder final : public Decoder {
+ public:
+  explicit TensorDecoder(CompressedBtf c) : Decoder(c.info), m_c(std::move(c)) {
+    m_n = m_info.nDirs();
+    const int64_t T = m_info.texels();
+    const CArray& cl = m_c.array("cluster");
+    if (cl.rows != T || cl.cols != 1)
+      throw Error("compressed BTF (tensor): the cluster array is " + std::to_string(cl.rows) +
+                  " × " + std::to_string(cl.cols) + ", expected " + std::to_string(T) + " × 1");
+    for (int ch = 0; ch < 3; ++ch) {
+      const CArray& rk = m_c.array(channelArray(ch, "ranks"));
+      if (rk.cols != 3 || rk.rows < 1 || (ch > 0 && rk.rows != m_K))
+        throw Error("compressed BTF (tensor): channel " + std::to_string(ch) + " ranks array is " +
+                    std::to_string(rk.rows) + " × " + std::to_string(rk.cols) +
+                    " (expected one row of 3 per cluster)");
+      m_K = int(rk.rows);
+      int64_t nv = 0, nl = 0, nc = 0;
+      for (int k = 0; k < m_K; ++k) {
+        const float v = rk.at(k, 0), l = rk.at(k, 1), t = rk.at(k, 2);
+        const int cv = std::min(kMaxRv, m_n), clim = std::min(kMaxRl, m_n);
+        if (!(v >= 0 && v <= cv && v == std::floor(v) && l >= 0 && l <= clim &&
+              l == std::floor(l) && t >= 0 && t <= std::min<float>(kMaxRt, v * l) &&
+              t == std::floor(t)))
+          throw Error("compressed BTF (tensor): channel " + std::to_string(ch) + " cluster " +
+                      std::to_string(k) + " has invalid ranks (" + std::to_string(v) + ", " +
+                      std::to_string(l) + ", " + std::to_string(t) + ")");
+        Ranks r{int(v), int(l), int(t)};
+        m_offV[ch].push_back(nv);
+        m_offL[ch].push_back(nl);
+        m_offC[ch].push_back(nc);
+        m_r[ch].push_back(r);
+        nv += int64_t(m_n) * r.v;
+        nl += int64_t(m_n) * r.l;
+        nc += int64_t(r.t) * r.v * r.l;
+      }
+      m_view[ch] = &checked(channelArray(ch, "view"), nv);
+      m_light[ch] = &checked(channelArray(ch, "light"), nl);
+      m_core[ch] = &checked(channelArray(ch, "core"), nc);
+    }
+    // Every texel's cluster (an integer within the clusters) and coefficient offset.
+    m_texCluster.resize(size_t(T));
+    m_texOffset.resize(size_t(T) + 1, 0);
+    for (int64_t t = 0; t < T; ++t) {
+      const float k = cl.data[size_t(t)];
+      if (!(k >= 0 && k < float(m_K) && k == std::floor(k)))
+        throw Error("compressed BTF (tensor): texel " + std::to_string(t) + " names cluster " +
+                    std::to_string(k) + " of " + std::to_string(m_K));
+      m_texCluster[size_t(t)] = int(k);
+      int64_t n = 0;
+      for (int ch = 0; ch < 3; ++ch) n += m_r[ch][size_t(k)].t;
+      m_texOffset[size_t(t) + 1] = m_texOffset[size_t(t)] + n;
+    }
+    m_coef = &checked("coef", m_texOffset.back());
+    // Per-texel Rv × Rl matrices M = Σ_j coef_j core_j, when they fit in 256 MiB (one value is
+    // then Rv·Rl products instead of Rt·Rv·Rl).
+    int64_t mSize = 0;
+    m_texM.resize(size_t(T) + 1, 0);
+    for (int64_t t = 0; t < T; ++t) {
+      m_texM[size_t(t)] = mSize;
+      for (int ch = 0; ch < 3; ++ch) {
+        const Ranks& r = m_r[ch][size_t(m_texCluster[size_t(t)])];
+        mSize += int64_t(r.v) * r.l;
+      }
+    }
+    m_texM[size_t(T)] = mSize;
+    if (uint64_t(mSize) * 4 <= (uint64_t(256) << 20)) {
+      m_M.resize(size_t(mSize));
+      parallelForChunks(T, 64, [&](int64_t b, int64_t e) {
+        for (int64_t t = b; t < e; ++t) {
+          float* dst = m_M.data() + m_texM[size_t(t)];
+          for (int ch = 0; ch < 3; ++ch) dst = texelMatrix(ch, t, dst);
+        }
+      });
+    }
+  }
+  std::string kind() const override { return "tensor"; }
+
+  TensorGpuTables gpuTables(uint64_t maxMatrixFloats) const {
+    TensorGpuTables g;
+    const int64_t T = m_info.texels();
+    const uint64_t mFloats = uint64_t(m_texM.back());
+    const bool withM = mFloats <= std::min<uint64_t>(maxMatrixFloats, uint64_t(1) << 24) &&
+                       m_texOffset.back() <= (int64_t(1) << 24);
+    std::vector<float> tmp;
+    for (int64_t t = 0; t < T; ++t) {
+      g.texels.push_back(float(m_texCluster[size_t(t)]));
+      g.texels.push_back(float(m_texOffset[size_t(t)]));
+      g.texels.push_back(withM ? float(m_texM[size_t(t)]) : -1.f);
+      if (withM) {
+        const float* M = matrices(t, tmp);
+        g.matrices.insert(g.matrices.end(), M, M + (m_texM[size_t(t) + 1] - m_texM[size_t(t)]));
+      }
+    }
+    for (int ch = 0; ch < 3; ++ch)
+      for (int k = 0; k < m_K; ++k) {
+        const Ranks& r = m_r[ch][size_t(k)];
+        for (int64_t x : {int64_t(r.v), int64_t(r.l), int64_t(r.t), m_offV[ch][size_t(k)],
+                          m_offL[ch][size_t(k)], m_offC[ch][size_t(k)]})
+          g.clusters[ch].push_back(float(x));
+      }
+    return g;
+  }
+
+  void texel(int64_t t, float* out) const override {
+    la::MatF V[3];
+    std::vector<float> tmp;
+    const int k = m_texCluster[size_t(t)];
+    const float* Mt = matrices(t, tmp);
+    for (int ch = 0; ch < 3; ++ch) {
+      const Ranks& r = m_r[ch][size_t(k)];
+      if (r.t == 0) {
+        V[ch] = la::MatF::Zero(m_n, m_n);
+        Mt += int64_t(r.v) * r.l;
+        continue;
+      }
+      using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+      const Eigen::Map<const RowMat> Uv(m_view[ch]->data.data() + m_offV[ch][size_t(k)], m_n, r.v);
+      const Eigen::Map<const RowMat> Ul(m_light[ch]->data.data() + m_offL[ch][size_t(k)], m_n, r.l);
+      const Eigen::Map<const RowMat> M(Mt, r.v, r.l);
+      V[ch] = (Uv * M) * Ul.transpose();
+      Mt += int64_t(r.v) * r.l;
+    }
+    for (int v = 0; v < m_n; ++v)
+      for (int l = 0; l < m_n; ++l) {
+        const float in[3] = {V[0](v, l), V[1](v, l), V[2](v, l)};
+        fromColour(m_c.colour, in, out + (size_t(v) * m_n + l) * 3);
+      }
+  }
+
+  std::array<float, 3> value(int64_t t, int view, int light) const override {
+    std::vector<float> tmp;
+    const int k = m_texCluster[size_t(t)];
+    const float* Mt = matrices(t, tmp);
+    float in[3] = {0, 0, 0};
+    for (int ch = 0; ch < 3; ++ch) {
+      const Ranks& r = m_r[ch][size_t(k)];
+      if (r.t > 0) {
+        const float* x = m_view[ch]->data.data() + m_offV[ch][size_t(k)] + int64_t(view) * r.v;
+        const float* y = m_light[ch]->data.data() + m_offL[ch][size_t(k)] + int64_t(light) * r.l;
+        double acc = 0;
+        for (int a = 0; a < r.v; ++a) {
+          const float* row = Mt + int64_t(a) * r.l;
+          double s = 0;
+          for (int b = 0; b < r.l; ++b) s += double(row[b]) * y[b];
+          acc += double(x[a]) * s;
+        }
+        in[ch] = float(acc);
+      }
+      Mt += int64_t(r.v) * r.l;
+    }
+    std::array<float, 3> rgb{};
+    fromColour(m_c.colour, in, rgb.data());
+    return rgb;
+  }
+
+ private:
+  const CArray& checked(const std::string& name, int64_t rows) const {
+    const CArray& a = m_c.array(name);
+    if (a.rows != rows || a.cols != 1)
+      throw Error("compressed BTF (tensor): array '" + name + "' is " + std::to_string(a.rows) +
+                  " × " + std::to_string(a.cols) + ", its ranks need " + std::to_string(rows) +
+                  " × 1");
+    return a;
+  }
+  // Channel ch's M (Rv × Rl, row-major) of texel t written at dst; returns the end.
+  float* texelMatrix(int ch, int64_t t, float* dst) const {
+    const int k = m_texCluster[size_t(t)];
+    const Ranks& r = m_r[ch][size_t(k)];
+    const int64_t d = int64_t(r.v) * r.l;
+    int64_t o = m_texOffset[size_t(t)];
+    for (int q = 0; q < ch; ++q) o += m_r[q][size_t(k)].t;
+    const float* u = m_coef->data.data() + o;
+    const float* core = m_core[ch]->data.data() + m_offC[ch][size_t(k)];
+    for (int64_t q = 0; q < d; ++q) {
+      double s = 0;
+      for (int j = 0; j < r.t; ++j) s += double(u[j]) * core[int64_t(j) * d + q];
+      dst[q] = float(s);
+    }
+    return dst + d;
+  }
+  const float* matrices(int64_t t, std::vector<float>& tmp) const {
+    if (!m_M.empty() || m_texM.back() == 0) return m_M.data() + m_texM[size_t(t)];
+    tmp.resize(size_t(m_texM[size_t(t) + 1] - m_texM[size_t(t)]));
+    float* dst = tmp.data();
+    for (int ch = 0; ch < 3; ++ch) dst = texelMatrix(ch, t, dst);
+    return tmp.data();
+  }
+
+  CompressedBtf m_c;
+  int m_n = 0, m_K = 0;
+  std::vector<Ranks> m_r[3];
+  std::vector<int64_t> m_offV[3], m_offL[3], m_offC[3];
+  const CArray *m_view[3], *m_light[3], *m_core[3], *m_coef = nullptr;
+  std::vector<int> m_texCluster;
+  std::vector<int64_t> m_texOffset, m_texM;
+  std::vector<float> m_M;
+};
+
+}  // namespace
+
+std::unique_ptr<Encoder> makeTensorEncoder(const CodecSettings& s, const BtfInfo& info,
+                                           const CancelToken* cancel) {
+  return std::make_unique<TensorEncoder>(s, info, cancel);
+}
+std::unique_ptr<Decoder> makeTensorDecoder(CompressedBtf c) {
+  return std::make_unique<TensorDecoder>(std::move(c));
+}
+
+TensorGpuTables tensorGpuTables(const CompressedBtf& c, uint64_t maxMatrixFloats) {
+  if (c.codec != "tensor") throw Error("tensor tables of a '" + c.codec + "' file");
+  return TensorDecoder(c).gpuTables(maxMatrixFloats);
+}
+
+}  // namespace btf
