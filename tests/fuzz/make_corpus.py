@@ -272,7 +272,7 @@ def btfs(btfsim, tmp):
     run("simulate", plane, "-o", os.path.join(tmp, "flat.btf"), "--texels", "2", "--dirs", "2x4")
     for f in ("brick.btf", "brick3.btf", "flat.btf"):
         shutil.copy(os.path.join(tmp, f), os.path.join(HERE, "corpus", "btf", f))
-    for codec in ("nmf", "svd", "perview", "lpca"):
+    for codec in ("nmf", "svd", "perview", "lpca", "tensor"):
         out = os.path.join(tmp, codec + ".cbtf")
         run("compress", os.path.join(tmp, "brick3.btf"), "-o", out, "--codec", codec)
         shutil.copy(out, os.path.join(HERE, "corpus", "cbtf", codec + ".cbtf"))
@@ -333,7 +333,7 @@ def btfs(btfsim, tmp):
     ccrafted("array_type.cbtf", lambda j: j["arrays"][0].update(type="f64"))
     ccrafted("version.cbtf", lambda j: j.update(format_version=99))
     # Arrays whose shapes disagree with the header, one per codec (the decoders' own checks).
-    for codec in ("nmf", "svd", "perview", "lpca"):
+    for codec in ("nmf", "svd", "perview", "lpca", "tensor"):
         src = split(os.path.join(tmp, codec + ".cbtf"))
 
         def shrink(j):
