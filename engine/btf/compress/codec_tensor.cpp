@@ -219,9 +219,24 @@ class TensorEncoder final : public Encoder {
               const float* s = m_S[size_t(mem[i])].data() + offsetInS(k, c);
               for (int64_t q = 0; q < d; ++q) Z(q, int64_t(i)) = s[q];
             }
-            // One GEMM of sizes fixed by the data (not by the stream's chunking).
-            const Eigen::MatrixXd G = Z * Z.transpose();
-            la::symmetricEigen(G, lam[size_t(kc)], vec[size_t(kc)]);
+            // One GEMM of sizes fixed by the data (not by the stream's chunking), on the smaller
+            // side: with fewer texels than d the texels' Gram matrix gives the same nonzero
+            // eigenvalues and the eigenvectors Z v / √λ.
+            la::VecD& L = lam[size_t(kc)];
+            Eigen::MatrixXd& V = vec[size_t(kc)];
+            if (Z.cols() < d) {
+              Eigen::MatrixXd W;
+              la::symmetricEigen(Z.transpose() * Z, L, W);
+              V = Eigen::MatrixXd::Zero(d, L.size());
+              for (int64_t j = 0; j < L.size(); ++j)
+                if (L[j] > 1e-12 * L[0])
+                  V.col(j) = Z * W.col(j) / std::sqrt(L[j]);
+                else
+                  L[j] = 0;
+            } else {
+              la::symmetricEigen(Z * Z.transpose(), L, V);
+            }
+            if (V.cols() > kMaxRt) V.conservativeResize(Eigen::NoChange, kMaxRt);
           }
         },
         m_cancel);
