@@ -1,5 +1,6 @@
 #include "export.h"
 
+#include <btf/compress/compress.h>
 #include <btf/core/error.h>
 #include <btf/core/output_lock.h>
 #include <btf/core/progress.h>
@@ -140,7 +141,7 @@ int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
 }
 
 Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int components,
-                            bool progress, const CancelToken* cancel) {
+                            bool progress, const CancelToken* cancel, double targetRmse) {
   const BtfInfo& info = d.info();
   const int n = info.nDirs();
   const int64_t T = info.texels();
@@ -150,7 +151,10 @@ Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int compo
   s.codec = "svd";
   s.colour = "rgb";
   s.half = false;
-  s.components = std::max(1, components);
+  s.components = std::max(0, components);
+  s.targetRmse = components > 0 ? 0 : targetRmse;
+  if (components <= 0 && !(targetRmse > 0 && targetRmse < 1))
+    throw Error("export ubo2014: --target-rmse must be in (0, 1) when --components is 0");
   s.trainTexels = int(std::min<int64_t>(T, 1024));
   auto enc = makeEncoder(s, info, cancel);
   {
@@ -182,9 +186,19 @@ Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int compo
     }
     pr.finish();
   }
-  const CompressedBtf c = enc->finish();
+  CompressedBtf c = enc->finish();
   Ubo2014Report rep;
   rep.relRmse = nlohmann::json::parse(c.statsJson).value("training_relative_rmse", 0.0);
+  {
+    // What the file holds: the factors rounded to fp16 as written below (U·b and K/b round like
+    // U and K up to the power-of-two part of b, so the stored values are measured on every
+    // texel through the svd decoder after the same rounding).
+    CompressedBtf q = c;
+    for (CArray& a : q.arrays) a.type = ArrayType::F16;
+    q.quantize();
+    const auto dec = makeDecoder(std::move(q));
+    rep.measuredRmse = compareBtfs(d, *dec, progress, 0, cancel).relRmse;
+  }
 
   std::string out;
   out.append("!DFMF08FCR", 10);
@@ -329,6 +343,7 @@ MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples,
   std::vector<int64_t> missing(90, 0);
   std::vector<double> spreadS(90, 0.0);
   std::vector<int64_t> spreadN(90, 0);
+  std::vector<double> asymDiff(90, 0.0), asymSum(90, 0.0), asymMax(90, 0.0);
   parallelForChunks(
       90, 1,
       [&](int64_t h0, int64_t h1) {
@@ -337,14 +352,18 @@ MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples,
             for (int ip = 0; ip < 180; ++ip) {
               double th, td, pd;
               merlBinCentre(int(ih), id, ip, &th, &td, &pd);
-              double sum[3] = {0, 0, 0}, sumL = 0, sumL2 = 0;
+              double sum[3] = {0, 0, 0}, sumL = 0, sumL2 = 0, asymD = 0, asymS = 0;
               int valid = 0;
               for (int k = 0; k < phiSamples; ++k) {
                 const double ph = (k + 0.5) * 2 * kPi / phiSamples;
-                double wi[3], wo[3], rgb[3];
+                double wi[3], wo[3], rgb[3], back[3];
                 halfDiffToDirections(th, ph, td, pd, wi, wo);
                 if (wi[2] <= 0 || wo[2] <= 0) continue;
                 eval(wi, wo, rgb);
+                eval(wo, wi, back);
+                asymD += std::abs((rgb[0] + rgb[1] + rgb[2]) - (back[0] + back[1] + back[2]));
+                asymS += 0.5 * (rgb[0] + rgb[1] + rgb[2] + back[0] + back[1] + back[2]);
+                for (int c = 0; c < 3; ++c) rgb[c] = 0.5 * (rgb[c] + back[c]);
                 for (int c = 0; c < 3; ++c) sum[c] += rgb[c];
                 const double lum = (rgb[0] + rgb[1] + rgb[2]) / 3;
                 sumL += lum;
@@ -358,6 +377,9 @@ MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples,
               }
               for (int c = 0; c < 3; ++c)
                 vals[size_t(c) * N + size_t(idx)] = sum[c] / valid / scale[c];
+              asymDiff[size_t(ih)] += asymD;
+              asymSum[size_t(ih)] += asymS;
+              if (asymS > 1e-12) asymMax[size_t(ih)] = std::max(asymMax[size_t(ih)], asymD / asymS);
               if (valid > 1 && sumL > 0) {
                 const double mean = sumL / valid;
                 const double var = std::max(0.0, sumL2 / valid - mean * mean);
@@ -377,6 +399,13 @@ MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples,
     spreadCount += spreadN[size_t(i)];
   }
   rep.anisotropy = spreadCount ? spreadSum / double(spreadCount) : 0;
+  double aD = 0, aS = 0;
+  for (int i = 0; i < 90; ++i) {
+    aD += asymDiff[size_t(i)];
+    aS += asymSum[size_t(i)];
+    rep.asymmetryMax = std::max(rep.asymmetryMax, asymMax[size_t(i)]);
+  }
+  rep.asymmetry = aS > 0 ? aD / aS : 0;
   std::string out;
   put<int32_t>(out, 90);
   put<int32_t>(out, 90);

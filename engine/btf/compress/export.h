@@ -17,21 +17,28 @@ int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
 
 struct Ubo2014Report {
   int components[3] = {0, 0, 0};
-  double relRmse = 0;  // of the rank-C factorisation against the source (training texels)
+  double relRmse = 0;       // of the rank-C factorisation against the source (training texels)
+  double measuredRmse = 0;  // the stored fp16 factors against the source, every texel
   uint64_t bytes = 0;
 };
-/// DFMF container, colour model 0 (RGB), fp16, C components per channel (full-matrix SVD
-/// computed from the decoded BTF).
+/// DFMF container, colour model 0 (RGB), fp16, full-matrix SVD of the decoded BTF with C
+/// components per channel, or (components = 0) as many as keep the factorisation's relative
+/// RMSE against its source at most targetRmse (spectra of the training texels).
 Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int components,
-                            bool progress, const CancelToken* cancel = nullptr);
+                            bool progress, const CancelToken* cancel = nullptr,
+                            double targetRmse = 0.01);
 
 struct MerlReport {
   int64_t bins = 0, missingBins = 0;
   double anisotropy = 0;  // mean relative spread of the aBRDF over φ_h (0 for isotropic data)
+  // Helmholtz reciprocity of the source: Σ|f(ωi, ωo) − f(ωo, ωi)| / Σ(f(ωi, ωo) + f(ωo, ωi))·2
+  // over every sample (luminance), and the largest bin's relative difference.
+  double asymmetry = 0, asymmetryMax = 0;
 };
 /// Texel-averaged aBRDF resampled to MERL's 90 × 90 × 180 bins: each bin's value is the mean
-/// over phiSamples half-vector azimuths φ_h = (k + ½)·2π/phiSamples at the bin centre; bins
-/// with every sample below the horizon are missing (−1).
+/// over phiSamples half-vector azimuths φ_h = (k + ½)·2π/phiSamples at the bin centre of the
+/// symmetrised ½(f(ωi, ωo) + f(ωo, ωi)) (MERL's data are reciprocal; the source's asymmetry
+/// is measured and reported); bins with every sample below the horizon are missing (−1).
 MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples, bool progress,
                       const CancelToken* cancel = nullptr);
 

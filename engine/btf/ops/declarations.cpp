@@ -186,11 +186,14 @@ std::vector<CommandDecl> build() {
   {
     CommandDecl c{
         "export", "export a BTF to the Bonn UBO2003/UBO2014 or MERL formats", {}, {"input"}, {}};
-    c.options = {path("input", "BTF (.btf or .cbtf)"),
-                 en("format", "ubo2014", {"ubo2003", "ubo2014", "merl"}, "export format"),
-                 path("output", "folder (ubo2003) or file"),
-                 in("components", 16, 1, 4096, "ubo2014: components per channel"),
-                 in("phi_samples", 16, 1, 1024, "merl: half-vector azimuths averaged per bin")};
+    c.options = {
+        path("input", "BTF (.btf or .cbtf)"),
+        en("format", "ubo2014", {"ubo2003", "ubo2014", "merl"}, "export format"),
+        path("output", "folder (ubo2003) or file"),
+        in("components", 0, 0, 4096, "ubo2014: components per channel (0 = from --target-rmse)"),
+        fl("target_rmse", 0.01, 1e-4, 0.5,
+           "ubo2014: relative RMSE the export may add to its input"),
+        in("phi_samples", 16, 1, 1024, "merl: half-vector azimuths averaged per bin")};
     c.options[1].required = true;
     cs.push_back(c);
   }

@@ -157,24 +157,42 @@ void exportBtf(const Call& c) {
     c.rep.text =
         format("wrote %lld images and btf_export.json under %s\n", (long long)n, out.c_str());
   } else if (fmt == "ubo2014") {
-    const Ubo2014Report e = exportUbo2014(*d, out, r.i("components"), c.progress(), c.ctx.cancel);
+    const double target = r.f("target_rmse");
+    const Ubo2014Report e =
+        exportUbo2014(*d, out, r.i("components"), c.progress(), c.ctx.cancel, target);
     j["bytes"] = e.bytes;
     j["components"] = {e.components[0], e.components[1], e.components[2]};
     j["factorisation_relative_rmse"] = e.relRmse;
+    j["export_relative_rmse"] = e.measuredRmse;
     c.rep.text = format(
-        "wrote %s (%s): DFMF, colour model 0, fp16, components R %d G %d B %d, "
-        "factorisation relative RMSE %.3f %% (training texels)\n",
+        "wrote %s (%s): DFMF, colour model 0, fp16, components R %d G %d B %d; the export "
+        "adds a relative RMSE of %.3f %% to its input (every texel; training fit %.3f %%)\n",
         out.c_str(), formatBytes(double(e.bytes)).c_str(), e.components[0], e.components[1],
-        e.components[2], 100 * e.relRmse);
+        e.components[2], 100 * e.measuredRmse, 100 * e.relRmse);
+    if (r.i("components") == 0 && e.measuredRmse > 1.5 * target)
+      c.warn(
+          format("the export's error (%.2f %%) exceeds --target-rmse %.2f %%: the training "
+                 "texels' spectra underestimate it; give --components",
+                 100 * e.measuredRmse, 100 * target));
   } else {
     const MerlReport e = exportMerl(*d, out, r.i("phi_samples"), c.progress(), c.ctx.cancel);
     j["bins"] = e.bins;
     j["missing_bins"] = e.missingBins;
     j["anisotropy"] = e.anisotropy;
+    j["asymmetry"] = e.asymmetry;
+    j["asymmetry_max"] = e.asymmetryMax;
     c.rep.text = format(
         "wrote %s: 90x90x180 bins, %lld missing (below the horizon), φh spread "
-        "%.1f %%\n",
-        out.c_str(), (long long)e.missingBins, 100 * e.anisotropy);
+        "%.1f %%, symmetrised f(ωi, ωo) and f(ωo, ωi) (source asymmetry %.2f %% mean, %.1f %% "
+        "worst bin)\n",
+        out.c_str(), (long long)e.missingBins, 100 * e.anisotropy, 100 * e.asymmetry,
+        100 * e.asymmetryMax);
+    if (e.asymmetry > 0.01)
+      c.warn(
+          format("the source violates reciprocity by %.1f %% on average (%.0f %% in the worst "
+                 "bin); the export averages f(ωi, ωo) and f(ωo, ωi) — more samples per "
+                 "texel (--spp, --max-spp) lower it",
+                 100 * e.asymmetry, 100 * e.asymmetryMax));
     if (e.anisotropy > 0.1)
       c.warn(
           format("the texel-averaged aBRDF varies by %.0f %% over the half-vector azimuth; "

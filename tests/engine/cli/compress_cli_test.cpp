@@ -23,7 +23,7 @@ TEST(BtfsimCompress, StreamedSimulationEqualsCompressingTheStoredBtf) {
   std::string out;
   ASSERT_EQ(test::runBtfsim("simulate " + common + " -o " + (dir / "a.btf").string(), &out), 0)
       << out;
-  for (const std::string codec : {"nmf", "svd"}) {
+  for (const std::string codec : {"nmf", "svd", "tensor"}) {
     const std::string file = (dir / (codec + "_file.cbtf")).string();
     const std::string streamed = (dir / (codec + "_stream.cbtf")).string();
     ASSERT_EQ(test::runBtfsim("compress " + (dir / "a.btf").string() + " -o " + file + " --codec " +

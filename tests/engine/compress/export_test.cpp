@@ -284,3 +284,63 @@ TEST(Export, MerlBinaryReadBackWithTheIndexFormula) {
   EXPECT_LT(data[size_t(merlIndex(80 * M_PI / 180 * 80 / 90, 89.5 * M_PI / 180, 0.0))], 0);
   EXPECT_GT(rep.missingBins, 0);
 }
+
+TEST(Export, Ubo2014ChoosesItsComponentsFromTheErrorItMayAdd) {
+  const auto dir = tempDir("export_ubo2014_target");
+  // Rank 2 per texel with 20 texels of different mixtures: one component is far off, two exact.
+  const BtfInfo info = syntheticInfo(5, 4, "4x8");
+  const auto raw = openBtf(writeRaw((dir / "a.btf").string(), info, syntheticValues(info, {})));
+  const Ubo2014Report one = exportUbo2014(*raw, (dir / "one.btf").string(), 1, false);
+  EXPECT_GT(one.measuredRmse, 0.02);
+  const Ubo2014Report rep = exportUbo2014(*raw, (dir / "t.btf").string(), 0, false, nullptr, 0.01);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(rep.components[c], 2) << "channel " << c;
+  EXPECT_LT(rep.measuredRmse, 0.01);  // fp16 rounding only
+  EXPECT_THROW(exportUbo2014(*raw, (dir / "x.btf").string(), 0, false, nullptr, 0.0), Error);
+}
+
+TEST(Export, MerlSymmetrisesANonReciprocalSourceAndMeasuresIt) {
+  const auto dir = tempDir("export_merl_recip");
+  // Isotropic, spatially uniform, NOT reciprocal: f = 0.2 + 0.5·cos θi·(1 − cos θo).
+  const BtfInfo info = syntheticInfo(2, 2, "12x24");
+  const DirectionSet ds = DirectionSet::fromName(info.directionSet);
+  const int n = info.nDirs();
+  std::vector<float> values(size_t(info.texels()) * n * n * 3);
+  for (int64_t t = 0; t < info.texels(); ++t)
+    for (int v = 0; v < n; ++v)
+      for (int l = 0; l < n; ++l)
+        for (int c = 0; c < 3; ++c)
+          values[((size_t(t) * n + v) * n + l) * 3 + size_t(c)] =
+              float(0.2 + 0.5 * ds[l].w.z * (1 - ds[v].w.z));
+  const auto raw = openBtf(writeRaw((dir / "a.btf").string(), info, values));
+  const std::string file = (dir / "a.binary").string();
+  const MerlReport rep = exportMerl(*raw, file, 16, false);
+  EXPECT_GT(rep.asymmetry, 0.05);  // measured and reported
+  EXPECT_GT(rep.asymmetryMax, rep.asymmetry);
+  // Swapping ωi and ωo maps φd to φd + π; with the mirror symmetry of this source the bins
+  // φd and π − φd then hold the same value once f(ωi, ωo) and f(ωo, ωi) are averaged.
+  Bytes b{readFile(file)};
+  const int N = 90 * 90 * 180;
+  std::vector<double> data(size_t(3) * N);
+  std::memcpy(data.data(), b.s.data() + 12, data.size() * 8);
+  double worst = 0, peak = 0;
+  for (int ih = 0; ih < 90; ih += 7)
+    for (int id = 0; id < 90; id += 5)
+      for (int ip = 0; ip < 90; ip += 3) {
+        const double a = data[size_t(ip + 180 * (id + 90 * ih))];
+        const double c = data[size_t(179 - ip + 180 * (id + 90 * ih))];
+        if (a < 0 || c < 0) continue;  // below the horizon
+        worst = std::max(worst, std::abs(a - c));
+        peak = std::max(peak, a);
+      }
+  EXPECT_GT(peak, 0);
+  EXPECT_LT(worst, 1e-9 * peak);
+  // A reciprocal source reports no asymmetry.
+  for (int64_t t = 0; t < info.texels(); ++t)
+    for (int v = 0; v < n; ++v)
+      for (int l = 0; l < n; ++l)
+        for (int c = 0; c < 3; ++c)
+          values[((size_t(t) * n + v) * n + l) * 3 + size_t(c)] =
+              float(0.2 + 0.5 * ds[l].w.z * ds[v].w.z);
+  const auto sym = openBtf(writeRaw((dir / "s.btf").string(), info, values));
+  EXPECT_LT(exportMerl(*sym, (dir / "s.binary").string(), 16, false).asymmetry, 1e-6);
+}
