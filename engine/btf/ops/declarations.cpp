@@ -288,7 +288,10 @@ std::vector<CommandDecl> build() {
                   {},
                   {"btf"},
                   {}};
-    c.options = {path("btf", "BTF (.btf or .cbtf)")};
+    c.options = {path("btf", "BTF (.btf or .cbtf)"),
+                 flag("bench_decoder",
+                      "compressed: time the CPU decoder on one thread (random values and whole "
+                      "texels)")};
     cs.push_back(c);
   }
   for (auto& c : cs)

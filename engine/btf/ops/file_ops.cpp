@@ -2,6 +2,7 @@
 // openBtf, so each accepts a raw store or a compressed file alike.
 #include <btf/compress/compress.h>
 #include <btf/compress/export.h>
+#include <btf/core/rng.h>
 #include <btf/core/sysinfo.h>
 #include <btf/directions/direction_set.h>
 #include <btf/io/image_io.h>
@@ -9,6 +10,7 @@
 #include <btf/store/btf_store.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 
@@ -259,8 +261,49 @@ void info(const Call& c) {
     t += "  checksums    all verified\n";
     // The codec's own checks (array shapes against the header, lpca's cluster ids): a file
     // whose checksums hold but that no decoder accepts is not "verified".
-    makeDecoder(std::move(b));
+    const auto dec = makeDecoder(std::move(b));
     t += "  decoder      arrays consistent with the header\n";
+    if (c.r.b("bench_decoder")) {
+      // One thread, after the decoder's own set-up: value() at random (texel, view, light),
+      // and texel() (every value of a texel) in texel order, each for at least half a second.
+      using Clock = std::chrono::steady_clock;
+      const int n = dec->info().nDirs();  // b (and I) moved into the decoder
+      const int64_t T = dec->info().texels();
+      Rng rng(7);
+      double sink = 0;
+      int64_t values = 0;
+      auto t0 = Clock::now();
+      double secs = 0;
+      while (secs < 0.5) {
+        for (int k = 0; k < 4096; ++k) {
+          const auto v = dec->value(int64_t(rng.next() % uint64_t(T)),
+                                    int(rng.next() % uint64_t(n)), int(rng.next() % uint64_t(n)));
+          sink += v[0];
+        }
+        values += 4096;
+        secs = std::chrono::duration<double>(Clock::now() - t0).count();
+      }
+      const double randomRate = double(values) / secs;
+      std::vector<float> buf(size_t(n) * n * 3);
+      values = 0;
+      t0 = Clock::now();
+      secs = 0;
+      for (int64_t tx = 0; secs < 0.5; tx = (tx + 1) % T) {
+        dec->texel(tx, buf.data());
+        sink += buf[0];
+        values += int64_t(n) * n;
+        secs = std::chrono::duration<double>(Clock::now() - t0).count();
+      }
+      const double texelRate = double(values) / secs;
+      j["decoder_bench"] = {{"threads", 1},
+                            {"random_values_per_s", randomRate},
+                            {"texel_values_per_s", texelRate},
+                            {"checksum", sink}};
+      t += format(
+          "  decode       %.2f M random values/s, %.2f M values/s by whole texels (RGB "
+          "values, one thread)\n",
+          randomRate * 1e-6, texelRate * 1e-6);
+    }
     c.rep.text = t;
     c.rep.summary = "verified " + path;
     return;
