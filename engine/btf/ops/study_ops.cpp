@@ -73,9 +73,14 @@ void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o) 
     std::string chosen;
     if (params.contains("components_per_channel")) chosen = params["components_per_channel"].dump();
     if (params.contains("channels")) {
+      // nmf: (slots, view and light components) per channel; tensor: mean (Rv, Rl, Rt).
       json ch = json::array();
-      for (const auto& x : params["channels"])
-        ch.push_back({x["slots"], x["components_view"], x["components_light"]});
+      for (const auto& x : params.at("channels")) {
+        if (x.contains("slots"))
+          ch.push_back({x.at("slots"), x.at("components_view"), x.at("components_light")});
+        else if (x.contains("mean_ranks"))
+          ch.push_back(x.at("mean_ranks"));
+      }
       chosen = ch.dump();
     }
     const auto dec = makeDecoder(std::move(b));

@@ -124,7 +124,7 @@ TEST(BtfsimCompress, StudySweepsCodecsAndComponents) {
   ASSERT_EQ(test::runBtfsim("study " + scenePath("bumps") + " -o " + dir.string() +
                                 " -q --texels 6 --dirs 4x8 --spp 1 --shadows map "
                                 "--network-voxels 0 --gather 4 --links 16 --bounces 1 "
-                                "--reference-spp 8 --codecs nmf,svd --components 1,4",
+                                "--reference-spp 8 --codecs nmf,svd,tensor --components 1,4",
                             &out),
             0)
       << out;
@@ -151,11 +151,14 @@ TEST(BtfsimCompress, StudySweepsCodecsAndComponents) {
   }
   ASSERT_EQ(rel["nmf"].size(), 2u);
   ASSERT_EQ(rel["svd"].size(), 2u);
+  ASSERT_EQ(rel["tensor"].size(), 2u);
+  EXPECT_LT(rel["tensor"][1], rel["tensor"][0]);  // ranks capped at 4 instead of 1
   // More components never fit worse (same training, nested bases).
   EXPECT_LE(rel["svd"][1], rel["svd"][0] + 1e-9);
   EXPECT_LE(rel["nmf"][1], rel["nmf"][0] + 1e-3);
   EXPECT_FALSE(std::filesystem::exists(dir / "base.btf"));
   EXPECT_NE(test::readFile(dir / "compression.md").find("| svd |"), std::string::npos);
+  EXPECT_NE(test::readFile(dir / "compression.md").find("| tensor |"), std::string::npos);
 }
 
 }  // namespace
