@@ -66,7 +66,9 @@ class TensorEncoder final : public Encoder {
     if (s.memoryBudget > 0)
       want = std::min<int64_t>(want, std::max<int64_t>(1, int64_t(s.memoryBudget / 4 / perTexel)));
     const int64_t m = std::min<int64_t>(m_T, want);
-    m_K = int(std::max<int64_t>(1, std::min<int64_t>(m_K, m)));
+    // The default keeps at least 16 training texels per cluster (the bases are fitted on
+    // them); an explicit --clusters at most one per training texel.
+    m_K = int(std::max<int64_t>(1, std::min<int64_t>(m_K, s.clusters > 0 ? m : m / 16)));
     m_train = stratifiedTexels(info.nu, info.nv, int(m), s.seed);
     m_done.assign(size_t(m_T), 0);
     m_cluster.assign(size_t(m_T), 0);
