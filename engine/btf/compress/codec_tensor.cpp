@@ -123,7 +123,7 @@ class TensorEncoder final : public Encoder {
         [&](int64_t b, int64_t e) {
           for (int64_t kc = b; kc < e; ++kc) {
             const int k = int(kc / 3), c = int(kc % 3);
-            spec[size_t(kc)] = la::modeSpectra(slices(X, members[size_t(k)], c));
+            spec[size_t(kc)] = la::modeSpectra(slices(X, members[size_t(k)], c), kMaxRv);
             scale[size_t(kc)] = members[size_t(k)].empty()
                                     ? 0.0
                                     : estTexels[size_t(k)] / double(members[size_t(k)].size());
@@ -145,7 +145,8 @@ class TensorEncoder final : public Encoder {
             const auto sl = slices(X, members[size_t(k)], c);
             for (const la::MatF* a : sl) energy[size_t(kc)] += a->cast<double>().squaredNorm();
             if (r.v == 0) continue;
-            const la::Tucker3 t = la::hooi(sl, r.v, r.l, r.t, kHooiSweeps);
+            const la::Tucker3 t =
+                la::hooi(sl, r.v, r.l, r.t, kHooiSweeps, nullptr, &spec[size_t(kc)]);
             err[size_t(kc)] = t.error;
             m_Uv[size_t(kc)] = quantized(t.Uv);
             m_Ul[size_t(kc)] = quantized(t.Ul);

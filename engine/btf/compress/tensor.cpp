@@ -218,12 +218,14 @@ void texelStep(const std::vector<const MatF*>& A, Tucker3& t, int Rt) {
 
 }  // namespace
 
-ModeSpectra modeSpectra(const std::vector<const MatF*>& A) {
+ModeSpectra modeSpectra(const std::vector<const MatF*>& A, int keepVectors) {
   ModeSpectra s;
   const int64_t m = int64_t(A.size());
   Eigen::MatrixXd V;
   symmetricEigen(viewGram(A), s.view, V);
+  s.viewVectors = V.leftCols(std::min<int64_t>(keepVectors, V.cols())).cast<float>();
   symmetricEigen(lightGram(A), s.light, V);
+  s.lightVectors = V.leftCols(std::min<int64_t>(keepVectors, V.cols())).cast<float>();
   Eigen::MatrixXd G(m, m);
   for (int64_t i = 0; i < m; ++i)
     for (int64_t j = 0; j <= i; ++j) {
@@ -236,7 +238,7 @@ ModeSpectra modeSpectra(const std::vector<const MatF*>& A) {
 }
 
 Tucker3 hooi(const std::vector<const MatF*>& A, int Rv, int Rl, int Rt, int sweeps,
-             std::vector<double>* errors) {
+             std::vector<double>* errors, const ModeSpectra* start) {
   Tucker3 t;
   if (A.empty()) return t;
   const int64_t nV = A[0]->rows(), nL = A[0]->cols(), m = int64_t(A.size());
@@ -247,8 +249,14 @@ Tucker3 hooi(const std::vector<const MatF*>& A, int Rv, int Rl, int Rt, int swee
   Rv = int(std::clamp<int64_t>(Rv, 0, nV));
   Rl = int(std::clamp<int64_t>(Rl, 0, nL));
   Rt = int(std::clamp<int64_t>(Rt, 0, std::min<int64_t>(m, int64_t(Rv) * Rl)));
-  t.Uv = topVectors(viewGram(A), Rv);
-  t.Ul = topVectors(lightGram(A), Rl);
+  if (start && start->viewVectors.cols() >= Rv && start->lightVectors.cols() >= Rl &&
+      start->viewVectors.rows() == nV && start->lightVectors.rows() == nL) {
+    t.Uv = start->viewVectors.leftCols(Rv);
+    t.Ul = start->lightVectors.leftCols(Rl);
+  } else {
+    t.Uv = topVectors(viewGram(A), Rv);
+    t.Ul = topVectors(lightGram(A), Rl);
+  }
   texelStep(A, t, Rt);
   if (errors) errors->push_back(t.error);
   for (int s = 0; s < sweeps && Rt > 0; ++s) {

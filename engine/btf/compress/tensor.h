@@ -65,14 +65,17 @@ void symmetricEigen(const Eigen::MatrixXd& G, VecD& values, Eigen::MatrixXd& vec
 /// (Rv, Rl, Rt) is at most the sum of the three tails (the HOSVD bound).
 struct ModeSpectra {
   VecD view, light, texel;
+  MatF viewVectors, lightVectors;  // the leading eigenvectors (at most keepVectors columns)
   double energy = 0;
 };
-ModeSpectra modeSpectra(const std::vector<const MatF*>& slices);
+ModeSpectra modeSpectra(const std::vector<const MatF*>& slices, int keepVectors = 0);
 
 /// HOSVD initialisation then `sweeps` HOOI sweeps (each mode updated as the top singular vectors
 /// of the tensor projected on the two others). errors, when given, receives the error after the
 /// initialisation and after every sweep (never increasing). Ranks are clamped to the tensor.
+/// `start`, when given, supplies the HOSVD bases (its leading eigenvectors; it must hold at least
+/// Rv and Rl of them) instead of recomputing the two mode Gram matrices.
 Tucker3 hooi(const std::vector<const MatF*>& slices, int Rv, int Rl, int Rt, int sweeps,
-             std::vector<double>* errors = nullptr);
+             std::vector<double>* errors = nullptr, const ModeSpectra* start = nullptr);
 
 }  // namespace btf::la
