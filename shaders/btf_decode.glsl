@@ -194,7 +194,7 @@ vec3 decodeNmfTexels(int tt[4], float tw[4], float thetaI, float phiI, float the
 // tensor per texel and channel: M (Rv × Rl, from u_tM or formed from the coefficients and the
 // core), then M·y for the 4 interpolation lights (4·Rv·Rl products) and xᵀ(M·y) for the 16
 // pairs. Each pair is converted to RGB and clamped before the weighted sum, like the CPU.
-#define MAX_TR 64
+#define MAX_TR 128
 int tabInt(samplerBuffer tab, int k, int i) { return int(fetch(tab, k * 6 + i) + 0.5); }
 void tensorPairs(samplerBuffer view, samplerBuffer light, samplerBuffer core, samplerBuffer tab,
                  int t, int cOff, int mOff, int vi[4], float vw[4], int li[4], float lw[4],

@@ -29,7 +29,7 @@
 namespace btf {
 namespace {
 
-constexpr int kMaxRv = 64, kMaxRl = 64, kMaxRt = 32;  // the GLSL decoder's arrays
+constexpr int kMaxRv = 128, kMaxRl = 128, kMaxRt = 32;  // the GLSL decoder's arrays
 constexpr int kSketchDim = 64;
 constexpr int kHooiSweeps = 2;
 
@@ -403,9 +403,20 @@ class TensorEncoder final : public Encoder {
 
   double scalarBytes() const { return m_s.half ? 2 : 4; }
   double rawBytes() const { return double(m_T) * m_n * m_n * 12.0; }
+  // The header (the source's header, directions, settings; 4 KiB more for what finish() adds to
+  // params and stats), the 14 arrays' alignment, the cluster ids and the rank tables.
   double fixedBytes() const {
-    return 65536.0 + double(m_T) * (m_K <= 2048 ? 2 : 4) + 3.0 * m_K * 3 * 4;
+    if (m_headerBytes == 0) {
+      CompressedBtf probe;
+      probe.info = m_info;
+      probe.codec = "tensor";
+      probe.colour = m_s.colour;
+      probe.paramsJson = settingsJson(m_s);
+      m_headerBytes = double(probe.fileBytes()) + 4096 + 14 * 64;
+    }
+    return m_headerBytes + double(m_T) * (m_K <= 2048 ? 2 : 4) + 3.0 * m_K * 3 * 4;
   }
+  mutable double m_headerBytes = 0;
 
   // Ranks (Rv, Rl, planned Rt) per (cluster, channel) from the training spectra: explicit
   // (--components caps every mode), or greedy by estimated energy per byte (HOSVD bound: the
