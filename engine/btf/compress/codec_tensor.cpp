@@ -32,6 +32,9 @@ namespace {
 constexpr int kMaxRv = 128, kMaxRl = 128, kMaxRt = 32;  // the GLSL decoder's arrays
 constexpr int kSketchDim = 64;
 constexpr int kHooiSweeps = 2;
+// Memory the encoder may hold (docs/compression.md): training values (and train()'s copy of
+// them), and every texel's projections.
+constexpr uint64_t kTrainingBytes = uint64_t(1) << 30, kProjectionBytes = uint64_t(1) << 30;
 
 struct Ranks {
   int v = 0, l = 0, t = 0;
@@ -59,12 +62,12 @@ class TensorEncoder final : public Encoder {
         m_T(info.texels()),
         m_sketch(int64_t(info.nDirs()) * info.nDirs() * 3, kSketchDim, s.seed ^ 0x7e45a) {
     m_K = int(std::min<int64_t>(m_T, s.clusters > 0 ? s.clusters : autoClusters(m_T)));
-    // Training texels: enough for every cluster's bases (32 each), within a quarter of the
-    // memory budget.
+    // Training texels: enough for every cluster's bases (32 each), at most kTrainingBytes of
+    // values — a fixed bound, not the memory budget, so that compressing a file and streaming
+    // from the simulator (whose budgets differ) choose the same texels.
     const uint64_t perTexel = uint64_t(m_n) * m_n * 3 * 4;
     int64_t want = std::max<int64_t>(s.trainTexels, int64_t(32) * m_K);
-    if (s.memoryBudget > 0)
-      want = std::min<int64_t>(want, std::max<int64_t>(1, int64_t(s.memoryBudget / 4 / perTexel)));
+    want = std::min<int64_t>(want, std::max<int64_t>(1, int64_t(kTrainingBytes / perTexel)));
     const int64_t m = std::min<int64_t>(m_T, want);
     // The default keeps at least 16 training texels per cluster (the bases are fitted on
     // them); an explicit --clusters at most one per training texel.
@@ -83,10 +86,18 @@ class TensorEncoder final : public Encoder {
 
   std::vector<int64_t> trainingTexels() const override { return m_train; }
 
+  // The training texels' matrices (train() keeps its own copy) and every texel's projections
+  // (at most projectionFloats() each: the ranks are chosen within it).
   uint64_t memoryBytes() const override {
     const uint64_t train = uint64_t(m_train.size()) * m_n * m_n * 3 * 4;
-    const uint64_t proj = uint64_t(m_T) * 3 * kMaxRv * kMaxRl * 4 + uint64_t(m_T) * 64;
+    const uint64_t proj = uint64_t(m_T) * (uint64_t(projectionFloats()) * 4 + 64);
     return train + proj;
+  }
+  /// Floats a texel's projections (Σ over channels of Rv·Rl of its cluster) may take: the caps,
+  /// or kProjectionBytes spread over the texels (fixed, like the training bound).
+  int64_t projectionFloats() const {
+    const int64_t caps = 3 * std::min<int64_t>(int64_t(m_n) * m_n, int64_t(kMaxRv) * kMaxRl);
+    return std::min(caps, std::max<int64_t>(3 * 64, int64_t(kProjectionBytes / 4) / m_T));
   }
 
   void train(const float* values) override {
@@ -483,6 +494,7 @@ class TensorEncoder final : public Encoder {
         for (int mode = 0; mode < 3; ++mode) {
           const double g = gain(kc, mode), c = cost(kc, mode);
           if (!(g > 0) || (byRatio && c > budget)) continue;
+          if (mode < 2 && projectionAfter(kc, mode) > projectionFloats()) continue;
           if (g / c > best) best = g / c, bk = kc, bm = mode;
         }
       }
@@ -492,6 +504,17 @@ class TensorEncoder final : public Encoder {
       Ranks& r = m_ranks[bk];
       (bm == 0 ? r.v : bm == 1 ? r.l : r.t) += 1;
     }
+  }
+
+  // A cluster's projection floats per texel if (cluster, channel) kc grew by one in `mode`.
+  int64_t projectionAfter(size_t kc, int mode) const {
+    const size_t k0 = kc / 3 * 3;
+    int64_t sum = 0;
+    for (size_t q = k0; q < k0 + 3; ++q) {
+      const Ranks& r = m_ranks[q];
+      sum += int64_t(r.v + (q == kc && mode == 0)) * (r.l + (q == kc && mode == 1));
+    }
+    return sum;
   }
 
   // Texel-mode ranks from the spectra of every texel's projection: explicit, or greedy with
