@@ -220,11 +220,9 @@ void tensorPairs(samplerBuffer view, samplerBuffer light, samplerBuffer core, sa
     }
   for (int p = 0; p < 4; ++p) {
     if (vw[p] <= 0.0) continue;
-    for (int q = 0; q < 4; ++q) {
-      if (lw[q] <= 0.0) continue;
-      float x = 0.0;
-      for (int a = 0; a < Rv; ++a) x += fetch(view, oV + vi[p] * Rv + a) * MY[q * MAX_TR + a];
-      val[p * 4 + q] = x;
+    for (int a = 0; a < Rv; ++a) {
+      float x = fetch(view, oV + vi[p] * Rv + a);
+      for (int q = 0; q < 4; ++q) val[p * 4 + q] += x * MY[q * MAX_TR + a];
     }
   }
 }
