@@ -62,12 +62,13 @@ class TensorEncoder final : public Encoder {
         m_T(info.texels()),
         m_sketch(int64_t(info.nDirs()) * info.nDirs() * 3, kSketchDim, s.seed ^ 0x7e45a) {
     m_K = int(std::min<int64_t>(m_T, s.clusters > 0 ? s.clusters : autoClusters(m_T)));
-    // Training texels: enough for every cluster's bases (32 each), at most kTrainingBytes of
-    // values — a fixed bound, not the memory budget, so that compressing a file and streaming
-    // from the simulator (whose budgets differ) choose the same texels.
+    // Training texels: --train-texels, or more to give every cluster 32 for its bases up to
+    // kTrainingBytes of values — a fixed bound, not the memory budget, so that compressing a
+    // file and streaming from the simulator (whose budgets differ) choose the same texels.
     const uint64_t perTexel = uint64_t(m_n) * m_n * 3 * 4;
-    int64_t want = std::max<int64_t>(s.trainTexels, int64_t(32) * m_K);
-    want = std::min<int64_t>(want, std::max<int64_t>(1, int64_t(kTrainingBytes / perTexel)));
+    const int64_t want = std::max<int64_t>(
+        s.trainTexels, std::min<int64_t>(int64_t(32) * m_K,
+                                         std::max<int64_t>(1, int64_t(kTrainingBytes / perTexel))));
     const int64_t m = std::min<int64_t>(m_T, want);
     // The default keeps at least 16 training texels per cluster (the bases are fitted on
     // them); an explicit --clusters at most one per training texel.
