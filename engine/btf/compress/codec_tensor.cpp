@@ -732,14 +732,11 @@ class TensorDecoder final : public Decoder {
       if (r.t > 0) {
         const float* x = m_view[ch]->data.data() + m_offV[ch][size_t(k)] + int64_t(view) * r.v;
         const float* y = m_light[ch]->data.data() + m_offL[ch][size_t(k)] + int64_t(light) * r.l;
-        double acc = 0;
-        for (int a = 0; a < r.v; ++a) {
-          const float* row = Mt + int64_t(a) * r.l;
-          double s = 0;
-          for (int b = 0; b < r.l; ++b) s += double(row[b]) * y[b];
-          acc += double(x[a]) * s;
-        }
-        in[ch] = float(acc);
+        // xᵀ (M y) in float, vectorised (the GLSL decoder's arithmetic too).
+        using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+        const Eigen::Map<const RowMat> M(Mt, r.v, r.l);
+        const Eigen::Map<const la::VecF> xv(x, r.v), yv(y, r.l);
+        in[ch] = xv.dot(M * yv);
       }
       Mt += int64_t(r.v) * r.l;
     }
