@@ -166,6 +166,20 @@ void nmfPairs(samplerBuffer bv, samplerBuffer bl, samplerBuffer cv, samplerBuffe
       val[a * 4 + b] = x;
     }
 }
+// The 16 (view, light) pairs of one texel, each channel triple converted to RGB and clamped
+// before the weighted sum, exactly as the CPU decoder does.
+vec3 combinePairs(float c0[16], float c1[16], float c2[16], float vw[4], float lw[4]) {
+  vec3 acc = vec3(0.0);
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) {
+      float w = vw[a] * lw[b];
+      if (w <= 0.0) continue;
+      vec3 c = vec3(c0[a * 4 + b], c1[a * 4 + b], c2[a * 4 + b]);
+      vec3 rgb = u_ycc == 1 ? vec3(c.x + c.y, c.x - c.y - c.z, c.x + c.z) : c;
+      acc += w * max(rgb, vec3(0.0));
+    }
+  return acc;
+}
 bool nmfFast() { return u_codec == 0 && max(max(u_k[0], u_k[1]), u_k[2]) <= MAX_K; }
 vec3 decodeNmfTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO, float phiO) {
   int li[4], vi[4];
@@ -179,14 +193,7 @@ vec3 decodeNmfTexels(int tt[4], float tw[4], float thetaI, float phiI, float the
     nmfPairs(u_a0, u_b0, u_c0buf, u_d0, u_c0[0], u_c1[0], u_k[0], tt[k], vi, vw, li, lw, c0);
     nmfPairs(u_a1, u_b1, u_c1buf, u_d1, u_c0[1], u_c1[1], u_k[1], tt[k], vi, vw, li, lw, c1);
     nmfPairs(u_a2, u_b2, u_c2buf, u_d2, u_c0[2], u_c1[2], u_k[2], tt[k], vi, vw, li, lw, c2);
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        float w = vw[a] * lw[b];
-        if (w <= 0.0) continue;
-        vec3 c = vec3(c0[a * 4 + b], c1[a * 4 + b], c2[a * 4 + b]);
-        vec3 rgb = u_ycc == 1 ? vec3(c.x + c.y, c.x - c.y - c.z, c.x + c.z) : c;
-        acc += tw[k] * w * max(rgb, vec3(0.0));
-      }
+    acc += tw[k] * combinePairs(c0, c1, c2, vw, lw);
   }
   return acc;
 }
@@ -247,14 +254,7 @@ vec3 decodeTensorTexels(int tt[4], float tw[4], float thetaI, float phiI, float 
     tensorPairs(u_a1, u_b1, u_c1buf, u_d1, t, cOff + rt0, mOff < 0 ? -1 : mOff + m0, vi, vw, li, lw, c1);
     tensorPairs(u_a2, u_b2, u_c2buf, u_d2, t, cOff + rt0 + rt1, mOff < 0 ? -1 : mOff + m0 + m1, vi,
                 vw, li, lw, c2);
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        float w = vw[a] * lw[b];
-        if (w <= 0.0) continue;
-        vec3 c = vec3(c0[a * 4 + b], c1[a * 4 + b], c2[a * 4 + b]);
-        vec3 rgb = u_ycc == 1 ? vec3(c.x + c.y, c.x - c.y - c.z, c.x + c.z) : c;
-        acc += tw[k] * w * max(rgb, vec3(0.0));
-      }
+    acc += tw[k] * combinePairs(c0, c1, c2, vw, lw);
   }
   return acc;
 }
