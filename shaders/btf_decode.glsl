@@ -115,18 +115,16 @@ vec3 decodeValue(int t, int o, int l) {
   return max(rgb, vec3(0.0));
 }
 
-vec3 decodeNmfTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO, float phiO);
-bool nmfFast();
-vec3 decodeTensorTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO,
+vec3 decodeFactorTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO,
                         float phiO);
+bool nmfFast();
 
 // aBRDF of texel t at any directions (radians): 4 × 4 interpolated values.
 vec3 decodeTexel(int t, float thetaI, float phiI, float thetaO, float phiO) {
   if (nmfFast() || u_codec == 4) {
     int tt[4] = int[4](t, t, t, t);
     float tw[4] = float[4](1.0, 0.0, 0.0, 0.0);
-    if (u_codec == 4) return decodeTensorTexels(tt, tw, thetaI, phiI, thetaO, phiO);
-    return decodeNmfTexels(tt, tw, thetaI, phiI, thetaO, phiO);
+    return decodeFactorTexels(tt, tw, thetaI, phiI, thetaO, phiO);
   }
   int li[4], vi[4];
   float lw[4], vw[4];
@@ -181,22 +179,6 @@ vec3 combinePairs(float c0[16], float c1[16], float c2[16], float vw[4], float l
   return acc;
 }
 bool nmfFast() { return u_codec == 0 && max(max(u_k[0], u_k[1]), u_k[2]) <= MAX_K; }
-vec3 decodeNmfTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO, float phiO) {
-  int li[4], vi[4];
-  float lw[4], vw[4];
-  interpolateDirs(thetaI, phiI, li, lw);
-  interpolateDirs(thetaO, phiO, vi, vw);
-  vec3 acc = vec3(0.0);
-  for (int k = 0; k < 4; ++k) {
-    if (tw[k] <= 0.0) continue;
-    float c0[16], c1[16], c2[16];
-    nmfPairs(u_a0, u_b0, u_c0buf, u_d0, u_c0[0], u_c1[0], u_k[0], tt[k], vi, vw, li, lw, c0);
-    nmfPairs(u_a1, u_b1, u_c1buf, u_d1, u_c0[1], u_c1[1], u_k[1], tt[k], vi, vw, li, lw, c1);
-    nmfPairs(u_a2, u_b2, u_c2buf, u_d2, u_c0[2], u_c1[2], u_k[2], tt[k], vi, vw, li, lw, c2);
-    acc += tw[k] * combinePairs(c0, c1, c2, vw, lw);
-  }
-  return acc;
-}
 
 // tensor per texel and channel: M (Rv × Rl, from u_tM or formed from the coefficients and the
 // core), then M·y for the 4 interpolation lights (4·Rv·Rl products) and xᵀ(M·y) for the 16
@@ -233,7 +215,9 @@ void tensorPairs(samplerBuffer view, samplerBuffer light, samplerBuffer core, sa
     }
   }
 }
-vec3 decodeTensorTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO,
+// The factorised codecs (nmf within MAX_K, tensor) decode the 16 direction pairs of each of the
+// four bilinear texels together.
+vec3 decodeFactorTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO,
                         float phiO) {
   int li[4], vi[4];
   float lw[4], vw[4];
@@ -242,18 +226,24 @@ vec3 decodeTensorTexels(int tt[4], float tw[4], float thetaI, float phiI, float 
   vec3 acc = vec3(0.0);
   for (int k = 0; k < 4; ++k) {
     if (tw[k] <= 0.0) continue;
-    int t = tt[k];
-    int cl = int(fetch(u_cluster, t * 3) + 0.5);
-    int cOff = int(fetch(u_cluster, t * 3 + 1) + 0.5);
-    int mOff = int(floor(fetch(u_cluster, t * 3 + 2) + 0.5));
-    // Channel 1 and 2 start after the earlier channels' coefficients and matrices.
-    int rt0 = tabInt(u_d0, cl, 2), rt1 = tabInt(u_d1, cl, 2);
-    int m0 = tabInt(u_d0, cl, 0) * tabInt(u_d0, cl, 1), m1 = tabInt(u_d1, cl, 0) * tabInt(u_d1, cl, 1);
     float c0[16], c1[16], c2[16];
-    tensorPairs(u_a0, u_b0, u_c0buf, u_d0, t, cOff, mOff, vi, vw, li, lw, c0);
-    tensorPairs(u_a1, u_b1, u_c1buf, u_d1, t, cOff + rt0, mOff < 0 ? -1 : mOff + m0, vi, vw, li, lw, c1);
-    tensorPairs(u_a2, u_b2, u_c2buf, u_d2, t, cOff + rt0 + rt1, mOff < 0 ? -1 : mOff + m0 + m1, vi,
-                vw, li, lw, c2);
+    if (u_codec == 4) {
+      int t = tt[k];
+      int cl = int(fetch(u_cluster, t * 3) + 0.5);
+      int cOff = int(fetch(u_cluster, t * 3 + 1) + 0.5);
+      int mOff = int(floor(fetch(u_cluster, t * 3 + 2) + 0.5));
+      // Channel 1 and 2 start after the earlier channels' coefficients and matrices.
+      int rt0 = tabInt(u_d0, cl, 2), rt1 = tabInt(u_d1, cl, 2);
+      int m0 = tabInt(u_d0, cl, 0) * tabInt(u_d0, cl, 1), m1 = tabInt(u_d1, cl, 0) * tabInt(u_d1, cl, 1);
+      tensorPairs(u_a0, u_b0, u_c0buf, u_d0, t, cOff, mOff, vi, vw, li, lw, c0);
+      tensorPairs(u_a1, u_b1, u_c1buf, u_d1, t, cOff + rt0, mOff < 0 ? -1 : mOff + m0, vi, vw, li, lw, c1);
+      tensorPairs(u_a2, u_b2, u_c2buf, u_d2, t, cOff + rt0 + rt1, mOff < 0 ? -1 : mOff + m0 + m1, vi,
+                  vw, li, lw, c2);
+    } else {
+      nmfPairs(u_a0, u_b0, u_c0buf, u_d0, u_c0[0], u_c1[0], u_k[0], tt[k], vi, vw, li, lw, c0);
+      nmfPairs(u_a1, u_b1, u_c1buf, u_d1, u_c0[1], u_c1[1], u_k[1], tt[k], vi, vw, li, lw, c1);
+      nmfPairs(u_a2, u_b2, u_c2buf, u_d2, u_c0[2], u_c1[2], u_k[2], tt[k], vi, vw, li, lw, c2);
+    }
     acc += tw[k] * combinePairs(c0, c1, c2, vw, lw);
   }
   return acc;
@@ -274,8 +264,7 @@ vec3 decodeAt(float x, float y, float thetaI, float phiI, float thetaO, float ph
         tt[j * 2 + i] = u + u_nu * v;
         tw[j * 2 + i] = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
       }
-    if (u_codec == 4) return decodeTensorTexels(tt, tw, thetaI, phiI, thetaO, phiO);
-    return decodeNmfTexels(tt, tw, thetaI, phiI, thetaO, phiO);
+    return decodeFactorTexels(tt, tw, thetaI, phiI, thetaO, phiO);
   }
   float fx = x - 0.5, fy = y - 0.5;
   float x0 = floor(fx), y0 = floor(fy);
