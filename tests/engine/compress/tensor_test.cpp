@@ -232,3 +232,26 @@ TEST(Tensor, DamagedTablesAreRefusedWithTheirReason) {
   expectRefused("c1.ranks", 2, 0.5f, "invalid ranks");
   expectRefused("c0.ranks", 1, float(good.array("c0.ranks").at(0, 1) + 1), "its ranks need");
 }
+
+TEST(Tensor, AnAllZeroBtfCodesNothingAndDecodesZeros) {
+  const BtfInfo info = syntheticInfo(4, 3, "4x8");
+  const auto dir = tempDir("tensor_zero");
+  const std::vector<float> zero(size_t(info.texels()) * info.nDirs() * info.nDirs() * 3, 0.f);
+  const std::string raw = writeRaw((dir / "a.btf").string(), info, zero);
+  for (const double ratio : {0.0, 300.0}) {
+    CodecSettings s;
+    s.codec = "tensor";
+    s.targetRatio = ratio;
+    const CompressedBtf c = compressStore(raw, s, false, nullptr, nullptr);
+    EXPECT_EQ(c.array("coef").rows, 0);
+    for (int ch = 0; ch < 3; ++ch) EXPECT_EQ(c.array(channelArray(ch, "core")).rows, 0);
+    const auto dec = makeDecoder(c);
+    std::vector<float> buf(size_t(info.nDirs()) * info.nDirs() * 3, 1.f);
+    for (int64_t t = 0; t < info.texels(); ++t) {
+      dec->texel(t, buf.data());
+      for (float x : buf) ASSERT_EQ(x, 0.f);
+      const auto v = dec->value(t, 3, 7);
+      for (float x : v) ASSERT_EQ(x, 0.f);
+    }
+  }
+}
