@@ -28,13 +28,15 @@ echo "== averaged BRDF (texel average, 128x128 path-traced positions per pair, e
   --pair 0,0,0,0 --pair 30,0,30,180 --pair 45,0,45,180 --pair 60,0,60,180 --pair 75,0,75,180 \
   --pair 45,0,45,0 --pair 45,90,45,270 --pair 80,0,10,0 > out/brick_brdf.csv
 cat out/brick_brdf.csv
-echo "== compress (per-texel NMF + PCA, thesis §3.4), measure the error, export"
-"$SIM" compress out/brick.btf -o out/brick.cbtf --codec nmf --compare
+echo "== compress at 1:300: clustered tensor (thesis §4.4.2) and per-texel NMF + PCA (§3.4)"
+"$SIM" compress out/brick.btf -o out/brick.cbtf --codec tensor --target-ratio 300 --compare
+"$SIM" compress out/brick.btf -o out/brick_nmf.cbtf --codec nmf --target-ratio 300 --compare
 "$SIM" compare out/brick.btf out/brick.cbtf --maps out/brick_compression_error --worst 3
-"$SIM" export out/brick.cbtf --format ubo2014 -o out/brick_dfmf.btf --components 16
+echo "== export (UBO2014 within 1 % of the compressed BTF; MERL, symmetrised)"
+"$SIM" export out/brick.cbtf --format ubo2014 -o out/brick_dfmf.btf
 "$SIM" export out/brick.cbtf --format merl -o out/brick_merl.binary
 echo "== simulate and compress in one stream (no raw BTF on disk)"
-"$SIM" simulate "$SCENE" -o out/brick_streamed.cbtf --compress nmf -q
+"$SIM" simulate "$SCENE" -o out/brick_streamed.cbtf --compress tensor --target-ratio 300 -q
 echo "== accuracy vs time (small study: 16x16 texels, against the path tracer)"
 "$SIM" study "$SCENE" -o out/study --texels 16 --method network,pt --dirs bonn81,8x16 --spp 1,2 \
   --shadows map --network-voxels 0 --gather 4 --links 16 --bounces 3,1,2 --reference-spp 128 -q
