@@ -117,12 +117,21 @@ class TensorEncoder final : public Encoder {
         },
         m_cancel);
     const la::KMeansResult km = la::irpKMeans(sk, m_K, m_s.seed);
-    m_centres = km.centres;
-    m_K = int(m_centres.cols());
     m_irpDims = km.dims;
     m_reseeds = km.reseeds;
-    std::vector<std::vector<int64_t>> members(static_cast<size_t>(m_K));
-    for (int64_t i = 0; i < m; ++i) members[size_t(km.assign[size_t(i)])].push_back(i);
+    // Clusters the last Lloyd iteration left empty are dropped: a streamed texel nearest to
+    // such a centre would find no bases there.
+    std::vector<std::vector<int64_t>> members;
+    std::vector<int64_t> keep;
+    {
+      std::vector<std::vector<int64_t>> all(static_cast<size_t>(km.centres.cols()));
+      for (int64_t i = 0; i < m; ++i) all[size_t(km.assign[size_t(i)])].push_back(i);
+      for (size_t k = 0; k < all.size(); ++k)
+        if (!all[k].empty()) keep.push_back(int64_t(k)), members.push_back(std::move(all[k]));
+    }
+    m_centres.resize(km.centres.rows(), int64_t(keep.size()));
+    for (size_t k = 0; k < keep.size(); ++k) m_centres.col(int64_t(k)) = km.centres.col(keep[k]);
+    m_K = int(keep.size());
 
     // Spectra per (cluster, channel), scaled to the cluster's estimated share of all texels.
     const size_t KC = size_t(m_K) * 3;
