@@ -36,6 +36,9 @@ constexpr int kHooiSweeps = 2;
 // them), and every texel's projections.
 constexpr uint64_t kTrainingBytes = uint64_t(1) << 30, kProjectionBytes = uint64_t(1) << 30;
 
+// The stored blocks are row-major (v·Rv + a, a·Rl + b).
+using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
 struct Ranks {
   int v = 0, l = 0, t = 0;
 };
@@ -345,7 +348,7 @@ class TensorEncoder final : public Encoder {
     // Errors before quantisation: the view/light projection (exact per texel) and the dropped
     // texel-mode eigenvalues.
     double energy = 0, proj = 0, kept = 0;
-    for (size_t i = 0; i < m_energy.size(); ++i) energy += m_energy[i], proj += m_projected[i];
+    totals(energy, proj);
     for (size_t kc = 0; kc < KC; ++kc)
       for (int j = 0; j < m_ranks[kc].t; ++j) kept += at(lam[kc], j);
     nlohmann::ordered_json params = nlohmann::ordered_json::parse(settingsJson(m_s));
@@ -411,6 +414,11 @@ class TensorEncoder final : public Encoder {
     std::vector<const la::MatF*> s;
     for (int64_t i : idx) s.push_back(&X[size_t(i) * 3 + size_t(c)]);
     return s;
+  }
+
+  // Σ over texels and channels of ‖A‖² and of ‖Uvᵀ A Ul‖², in texel order.
+  void totals(double& energy, double& projected) const {
+    for (size_t i = 0; i < m_energy.size(); ++i) energy += m_energy[i], projected += m_projected[i];
   }
 
   int64_t offsetInS(int k, int c) const {
@@ -547,7 +555,7 @@ class TensorEncoder final : public Encoder {
     }
     const double sb = scalarBytes();
     double energy = 0, proj = 0;
-    for (size_t i = 0; i < m_energy.size(); ++i) energy += m_energy[i], proj += m_projected[i];
+    totals(energy, proj);
     const bool byRatio = m_s.targetRatio > 0;
     const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
     double budget = rawBytes() / (byRatio ? m_s.targetRatio : 1) - fixedBytes();
@@ -717,7 +725,6 @@ class TensorDecoder final : public Decoder {
         Mt += int64_t(r.v) * r.l;
         continue;
       }
-      using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
       const Eigen::Map<const RowMat> Uv(m_view[ch]->data.data() + m_offV[ch][size_t(k)], m_n, r.v);
       const Eigen::Map<const RowMat> Ul(m_light[ch]->data.data() + m_offL[ch][size_t(k)], m_n, r.l);
       const Eigen::Map<const RowMat> M(Mt, r.v, r.l);
@@ -742,7 +749,6 @@ class TensorDecoder final : public Decoder {
         const float* x = m_view[ch]->data.data() + m_offV[ch][size_t(k)] + int64_t(view) * r.v;
         const float* y = m_light[ch]->data.data() + m_offL[ch][size_t(k)] + int64_t(light) * r.l;
         // xᵀ (M y) in float, vectorised (the GLSL decoder's arithmetic too).
-        using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
         const Eigen::Map<const RowMat> M(Mt, r.v, r.l);
         const Eigen::Map<const la::VecF> xv(x, r.v), yv(y, r.l);
         in[ch] = xv.dot(M * yv);
