@@ -2,6 +2,7 @@
 // declaration in the engine (btf/ops): argv becomes a Request, the Report becomes text on stdout
 // (notes and warnings on stderr) or JSON with --json. Errors are one line `btfsim: error: …`.
 #include <btf/core/error.h>
+#include <btf/core/hash.h>
 #include <btf/ops/ops.h>
 #include <btf/scene/scene.h>
 
@@ -11,6 +12,13 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <memory>
+#include <sstream>
+#include <thread>
+#ifdef BTF_HAVE_MPI
+#include <mpi_comm.h>
+#include <sched.h>
+#endif
 
 namespace {
 
@@ -52,6 +60,14 @@ int writeText(const std::string& s, const std::string& output) {
   std::ofstream f(output, std::ios::binary);
   if (!f || !(f << s)) throw btf::Error(output + ": cannot write");
   return 0;
+}
+
+// This executable's own bytes: ranks of one job must run the same build.
+std::string selfFingerprint() {
+  std::ifstream f("/proc/self/exe", std::ios::binary);
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  return btf::hex64(btf::checksum64(ss.str()));
 }
 
 }  // namespace
@@ -170,17 +186,53 @@ int main(int argc, char** argv) {
       }
       const bool quiet = req.b("quiet"), json = req.b("json");
       btf::RunContext ctx;
-      ctx.progress = !quiet;
-      const ops::NoteSink notes = [quiet](const std::string& s) {
-        if (!quiet || s.rfind("btfsim: warning:", 0) == 0) std::fprintf(stderr, "%s\n", s.c_str());
+      // Under mpirun or srun (an MPI build): one job over every rank (docs/cluster.md). Rank 0
+      // alone prints; each rank takes its share of the node's cores.
+      std::unique_ptr<btf::Comm> mpi;
+#ifdef BTF_HAVE_MPI
+      if (btf::launchedByMpi()) {
+        auto m = std::make_unique<btf::MpiComm>(&argc, &argv);
+        if (!req.given("threads") && m->localSize() > 1) {
+          cpu_set_t set;
+          const int affinity = sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 1;
+          const int hw = int(std::max(1u, std::thread::hardware_concurrency()));
+          ctx.threads = std::max(1, std::min(affinity, hw / m->localSize()));
+        }
+        mpi = std::move(m);
+        ctx.comm = mpi.get();
+      }
+#endif
+      const bool root = !mpi || mpi->rank() == 0;
+      ctx.progress = !quiet && root;
+      const ops::NoteSink notes = [quiet, root](const std::string& s) {
+        if (root && (!quiet || s.rfind("btfsim: warning:", 0) == 0))
+          std::fprintf(stderr, "%s\n", s.c_str());
       };
       ops::Report rep;
       try {
+        if (mpi) {
+          btf::requireSame(*mpi, "the btfsim binary", selfFingerprint());
+          btf::requireSame(*mpi, "the request", req.toJson());
+        }
         rep = ops::run(req, ctx, notes);
-      } catch (const btf::Error& e) {
-        std::fprintf(stderr, "btfsim: error: %s\n", e.what());
+      } catch (const btf::CollectiveError& e) {
+        // Every rank failed together: rank 0 says why, each ends cleanly.
+        if (root) std::fprintf(stderr, "btfsim: error: %s\n", e.what());
         return 1;
+      } catch (const btf::Error& e) {
+        if (!mpi || mpi->size() == 1) {
+          std::fprintf(stderr, "btfsim: error: %s\n", e.what());
+          return 1;
+        }
+#ifdef BTF_HAVE_MPI
+        // This rank alone: the others may wait in a collective, so the job ends here.
+        std::fprintf(stderr, "btfsim: error: rank %d of %d: %s\n", mpi->rank(), mpi->size(),
+                     e.what());
+        std::fflush(stderr);
+        static_cast<btf::MpiComm*>(mpi.get())->abort(1);
+#endif
       }
+      if (!root) return 0;
       if (json)
         std::cout << rep.json.dump(2) << std::endl;
       else

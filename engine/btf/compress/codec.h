@@ -6,10 +6,12 @@
 #pragma once
 #include <btf/compress/cbtf.h>
 #include <btf/compress/linalg.h>
+#include <btf/core/error.h>
 #include <btf/core/parallel.h>
 #include <btf/store/btf_store.h>
 
 #include <array>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -69,6 +71,59 @@ class Encoder {
   virtual CompressedBtf finish() = 0;
   /// Memory the encoder holds (for the budget check and the estimate).
   virtual uint64_t memoryBytes() const = 0;
+  /// A cluster job (docs/cluster.md): what add() computed for every texel this encoder was
+  /// given, as bytes that an encoder of the same settings and training merges (mergeAdded)
+  /// before its finish(). The merged encoder writes the bytes one encoder fed every texel writes.
+  virtual std::string addedState() const = 0;
+  virtual void mergeAdded(const std::string& bytes) = 0;
+};
+
+/// Appends and reads back the plain values of encoder states (addedState / mergeAdded).
+class StateWriter {
+ public:
+  template <class T>
+  void put(const T& v) {
+    m_s.append(reinterpret_cast<const char*>(&v), sizeof v);
+  }
+  template <class T>
+  void putVector(const std::vector<T>& v) {
+    put<uint64_t>(v.size());
+    m_s.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  std::string take() { return std::move(m_s); }
+
+ private:
+  std::string m_s;
+};
+class StateReader {
+ public:
+  explicit StateReader(const std::string& s) : m_s(s) {}
+  template <class T>
+  T get() {
+    T v;
+    need(sizeof v);
+    std::memcpy(&v, m_s.data() + m_o, sizeof v);
+    m_o += sizeof v;
+    return v;
+  }
+  template <class T>
+  std::vector<T> getVector(uint64_t maxCount) {
+    const uint64_t n = get<uint64_t>();
+    if (n > maxCount) throw Error("encoder state: a record holds more values than it can");
+    need(n * sizeof(T));
+    std::vector<T> v(n);
+    if (n) std::memcpy(v.data(), m_s.data() + m_o, n * sizeof(T));
+    m_o += n * sizeof(T);
+    return v;
+  }
+  bool done() const { return m_o == m_s.size(); }
+
+ private:
+  void need(uint64_t n) const {
+    if (n > m_s.size() - m_o) throw Error("encoder state: truncated");
+  }
+  const std::string& m_s;
+  size_t m_o = 0;
 };
 
 /// Stratified subset of n texels over the Nu × Nv grid (one per cell of a near-square grid of

@@ -96,6 +96,33 @@ class TrainedEncoder : public Encoder {
         m_cancel);
     m_encodeSeconds += since(start);
   }
+  // The per-texel rows of the coefficient (and cluster) arrays.
+  std::string addedState() const override {
+    StateWriter w;
+    for (int64_t t = 0; t < int64_t(m_done.size()); ++t) {
+      if (!m_done[size_t(t)]) continue;
+      w.put<int64_t>(t);
+      for (const CArray* a : m_texelArrays)
+        w.putVector(std::vector<float>(a->data.begin() + ptrdiff_t(size_t(t) * a->cols),
+                                       a->data.begin() + ptrdiff_t(size_t(t + 1) * a->cols)));
+    }
+    return w.take();
+  }
+  void mergeAdded(const std::string& bytes) override {
+    if (!m_trained) throw Error(m_s.codec + " encoder: mergeAdded() before train()");
+    StateReader r(bytes);
+    while (!r.done()) {
+      const int64_t t = r.get<int64_t>();
+      if (t < 0 || t >= int64_t(m_done.size())) throw Error("encoder state: texel out of range");
+      for (CArray* a : m_texelArrays) {
+        const std::vector<float> row = r.getVector<float>(uint64_t(a->cols));
+        if (row.size() != size_t(a->cols)) throw Error("encoder state: row size mismatch");
+        std::copy(row.begin(), row.end(), a->data.begin() + ptrdiff_t(size_t(t) * a->cols));
+      }
+      m_done[size_t(t)] = 1;
+    }
+  }
+
   CompressedBtf finish() override {
     for (size_t t = 0; t < m_done.size(); ++t)
       if (!m_done[t])
@@ -171,6 +198,7 @@ class TrainedEncoder : public Encoder {
   double m_trainSeconds = 0, m_encodeSeconds = 0;
   int m_C[3] = {0, 0, 0};
   CompressedBtf m_out;
+  std::vector<CArray*> m_texelArrays;  // arrays with one row per texel (addedState)
 };
 
 // Stores B (rows × C) in an array region and returns the quantized copy used for projection.
@@ -234,6 +262,7 @@ class SvdEncoder final : public TrainedEncoder {
       m_G[c] = gramInverse(m_B[c]);
       for (int k = 0; k < m_C[c]; ++k) kept += b[c].eigen[k];
       m_coef[c] = &m_out.add(channelArray(c, "coef"), type(), m_info.texels(), m_C[c]);
+      m_texelArrays.push_back(m_coef[c]);
     }
     m_trainRel = m_trainEnergy > 0 ? std::sqrt(std::max(0.0, 1 - kept / m_trainEnergy)) : 0;
   }
@@ -296,6 +325,7 @@ class PerViewEncoder final : public TrainedEncoder {
       }
       m_coef[c] =
           &m_out.add(channelArray(c, "coef"), type(), m_info.texels(), int64_t(m_n) * m_C[c]);
+      m_texelArrays.push_back(m_coef[c]);
     }
     m_trainRel = m_trainEnergy > 0 ? std::sqrt(std::max(0.0, 1 - kept / m_trainEnergy)) : 0;
   }
@@ -433,6 +463,7 @@ class LpcaEncoder final : public TrainedEncoder {
     });
     double kept = 0;
     m_cluster = &m_out.add("cluster", ArrayType::F32, m_info.texels(), 1);
+    m_texelArrays.push_back(m_cluster);
     for (int c = 0; c < 3; ++c) {
       CArray& a = m_out.add(channelArray(c, "basis"), type(), int64_t(K) * m_lv, m_C[c]);
       for (int k = 0; k < K; ++k) {
@@ -446,6 +477,7 @@ class LpcaEncoder final : public TrainedEncoder {
         m_have[c].push_back(have);
       }
       m_coef[c] = &m_out.add(channelArray(c, "coef"), type(), m_info.texels(), m_C[c]);
+      m_texelArrays.push_back(m_coef[c]);
     }
     m_K = K;
     m_trainRel = m_trainEnergy > 0 ? std::sqrt(std::max(0.0, 1 - kept / m_trainEnergy)) : 0;

@@ -36,6 +36,49 @@ class NmfEncoder final : public Encoder {
     m_n = info.nDirs();
     m_f.resize(size_t(info.texels()) * 3);
     m_done.assign(size_t(info.texels()), 0);
+    m_texelErr2.assign(size_t(info.texels()) * 3, 0.0);
+    m_texelEnergy.assign(size_t(info.texels()) * 3, 0.0);
+  }
+
+  std::string addedState() const override {
+    StateWriter w;
+    w.put<int64_t>(m_iters);
+    w.put<int64_t>(m_solves);
+    for (int64_t t = 0; t < int64_t(m_done.size()); ++t) {
+      if (!m_done[size_t(t)]) continue;
+      w.put<int64_t>(t);
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = size_t(t) * 3 + size_t(c);
+        w.put(m_texelErr2[i]);
+        w.put(m_texelEnergy[i]);
+        w.putVector(m_f[i].scale);
+        w.putVector(m_f[i].view);
+        w.putVector(m_f[i].light);
+      }
+    }
+    return w.take();
+  }
+  void mergeAdded(const std::string& bytes) override {
+    StateReader r(bytes);
+    m_iters += r.get<int64_t>();
+    m_solves += r.get<int64_t>();
+    const uint64_t kMax = uint64_t(m_s.maxRank) * uint64_t(m_n);
+    while (!r.done()) {
+      const int64_t t = r.get<int64_t>();
+      if (t < 0 || t >= int64_t(m_done.size())) throw Error("encoder state: texel out of range");
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = size_t(t) * 3 + size_t(c);
+        m_texelErr2[i] = r.get<double>();
+        m_texelEnergy[i] = r.get<double>();
+        m_f[i].scale = r.getVector<float>(uint64_t(m_s.maxRank));
+        m_f[i].view = r.getVector<float>(kMax);
+        m_f[i].light = r.getVector<float>(kMax);
+        if (m_f[i].view.size() != m_f[i].scale.size() * size_t(m_n) ||
+            m_f[i].light.size() != m_f[i].view.size())
+          throw Error("encoder state: inconsistent factor sizes");
+      }
+      m_done[size_t(t)] = 1;
+    }
   }
 
   void add(int64_t t0, int64_t t1, const float* values) override {
@@ -45,7 +88,6 @@ class NmfEncoder final : public Encoder {
         t1 - t0, 1,
         [&](int64_t b, int64_t e) {
           la::MatF A(m_n, m_n);
-          double err2 = 0, energy = 0;
           int64_t iters = 0, solves = 0;
           for (int64_t k = b; k < e; ++k) {
             const float* x = values + size_t(k) * stride;
@@ -56,13 +98,12 @@ class NmfEncoder final : public Encoder {
                   toColour(m_s.colour, x + (size_t(v) * m_n + l) * 3, col);
                   A(v, l) = col[c];
                 }
-              factor(A, c, m_f[size_t(t0 + k) * 3 + size_t(c)], err2, energy, iters, solves);
+              const size_t i = size_t(t0 + k) * 3 + size_t(c);
+              factor(A, c, m_f[i], m_texelErr2[i], m_texelEnergy[i], iters, solves);
             }
             m_done[size_t(t0 + k)] = 1;
           }
           std::lock_guard<std::mutex> lock(m_mutex);
-          m_err2 += err2;
-          m_energy += energy;
           m_iters += iters;
           m_solves += solves;
         },
@@ -100,6 +141,14 @@ class NmfEncoder final : public Encoder {
       }
     // Components: explicit, from the ratio's size model, or from the error target.
     const int maxC = std::min(m_n, 256);
+    // Totals in texel order: the same bits however the texels were streamed or distributed.
+    for (int64_t t = 0; t < T; ++t)
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = size_t(t) * 3 + size_t(c);
+        m_err2 += m_texelErr2[i];
+        m_energy += m_texelEnergy[i];
+        m_chanEnergy[c] += m_texelEnergy[i];
+      }
     const double nmfRel2 = m_energy > 0 ? m_err2 / m_energy : 0;
     const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
     // Error left to the PCA stage, split between the view and light sides.
@@ -226,11 +275,8 @@ class NmfEncoder final : public Encoder {
   void factor(const la::MatF& A, int c, TexelFactors& out, double& err2, double& energy,
               int64_t& iters, int64_t& solves) {
     const double norm2 = A.cast<double>().squaredNorm();
-    energy += norm2;
-    {
-      std::lock_guard<std::mutex> lock(m_mutex);
-      m_chanEnergy[c] += norm2;
-    }
+    energy = norm2;
+    err2 = 0;
     out = TexelFactors{};
     if (!(norm2 > 0)) return;  // all-zero texel (fully shadowed): rank 0
     const la::Svd svd = la::truncatedSvd(A, m_s.maxRank, 2, m_s.seed);
@@ -274,6 +320,7 @@ class NmfEncoder final : public Encoder {
   std::mutex m_mutex;
   double m_err2 = 0, m_energy = 0, m_seconds = 0;
   double m_chanEnergy[3] = {0, 0, 0};
+  std::vector<double> m_texelErr2, m_texelEnergy;  // per (texel, channel)
   int64_t m_iters = 0, m_solves = 0;
 };
 

@@ -185,6 +185,43 @@ class TensorEncoder final : public Encoder {
     m_trained = true;
   }
 
+  std::string addedState() const override {
+    StateWriter w;
+    for (int64_t t = 0; t < m_T; ++t) {
+      if (!m_done[size_t(t)]) continue;
+      w.put<int64_t>(t);
+      w.put<int32_t>(m_cluster[size_t(t)]);
+      for (int c = 0; c < 3; ++c) {
+        w.put(m_energy[size_t(t) * 3 + size_t(c)]);
+        w.put(m_projected[size_t(t) * 3 + size_t(c)]);
+      }
+      w.putVector(m_S[size_t(t)]);
+    }
+    return w.take();
+  }
+  void mergeAdded(const std::string& bytes) override {
+    if (!m_trained) throw Error("tensor encoder: mergeAdded() before train()");
+    StateReader r(bytes);
+    while (!r.done()) {
+      const int64_t t = r.get<int64_t>();
+      if (t < 0 || t >= m_T) throw Error("encoder state: texel out of range");
+      const int k = r.get<int32_t>();
+      if (k < 0 || k >= m_K) throw Error("encoder state: cluster out of range");
+      m_cluster[size_t(t)] = k;
+      for (int c = 0; c < 3; ++c) {
+        m_energy[size_t(t) * 3 + size_t(c)] = r.get<double>();
+        m_projected[size_t(t) * 3 + size_t(c)] = r.get<double>();
+      }
+      uint64_t expect = 0;
+      for (int c = 0; c < 3; ++c)
+        expect += uint64_t(m_ranks[size_t(k) * 3 + size_t(c)].v) *
+                  uint64_t(m_ranks[size_t(k) * 3 + size_t(c)].l);
+      m_S[size_t(t)] = r.getVector<float>(expect);
+      if (m_S[size_t(t)].size() != expect) throw Error("encoder state: projection size mismatch");
+      m_done[size_t(t)] = 1;
+    }
+  }
+
   void add(int64_t t0, int64_t t1, const float* values) override {
     if (!m_trained) throw Error("tensor encoder: add() before train()");
     const size_t stride = size_t(m_n) * m_n * 3;

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -22,13 +23,28 @@ double since(Clock::time_point t) {
 }
 }  // namespace
 
+bool gatherEncoder(Comm& comm, Encoder& enc) {
+  if (!comm.distributed()) return true;
+  const std::vector<std::string> states = comm.gather(enc.addedState(), 0);
+  if (!comm.root()) return false;
+  for (int q = 1; q < comm.size(); ++q) enc.mergeAdded(states[size_t(q)]);
+  return true;
+}
+
 CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, bool progress,
-                            const CancelToken* cancel, CompressReport* report) {
+                            const CancelToken* cancel, CompressReport* report, Comm* commIn) {
+  Comm& comm = commIn ? *commIn : localComm();
+  const uint64_t comm0 = comm.bytesSent() + comm.bytesReceived();
   const auto start = Clock::now();
-  BtfReader in(inPath);
-  const BtfInfo& info = in.info();
-  auto enc = makeEncoder(s, info, cancel);
+  std::unique_ptr<BtfReader> reader;
+  std::unique_ptr<Encoder> enc;
   CompressReport r;
+  // In a cluster job every rank reaches each agreement, even when its own share failed.
+  collectively(comm, [&] {
+  reader = std::make_unique<BtfReader>(inPath);
+  const BtfReader& in = *reader;
+  const BtfInfo& info = in.info();
+  enc = makeEncoder(s, info, cancel);
   r.texels = info.texels();
   const auto train = enc->trainingTexels();
   const size_t stride = size_t(info.nDirs()) * info.nDirs() * 3;
@@ -58,19 +74,35 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
   }
   {
     const auto t0 = Clock::now();
-    ProgressReporter pr("encode " + s.codec, info.texels(), progress);
-    for (int c = 0; c < info.chunks(); ++c) {
+    // A cluster job: chunk c is rank c mod N's.
+    int64_t mine = 0;
+    for (int c = comm.rank(); c < info.chunks(); c += comm.size())
+      mine += info.chunkEnd(c) - info.chunkBegin(c);
+    ProgressReporter pr("encode " + s.codec, mine, progress);
+    for (int c = comm.rank(); c < info.chunks(); c += comm.size()) {
       if (cancel && cancel->cancelled()) throw Cancelled("compression");
       const std::vector<float> chunk = in.readChunk(c);
       enc->add(info.chunkBegin(c), info.chunkEnd(c), chunk.data());
       pr.add(info.chunkEnd(c) - info.chunkBegin(c));
     }
+    r.texelsEncoded = mine;
     if (cancel && cancel->cancelled()) throw Cancelled("compression");
     pr.finish();
     r.encodeSeconds = since(t0);
   }
+  });
   const auto f0 = Clock::now();
-  CompressedBtf out = enc->finish();
+  CompressedBtf out;
+  r.ranks = comm.size();
+  bool root = false;
+  collectively(comm, [&] { root = gatherEncoder(comm, *enc); });
+  r.commBytes = comm.bytesSent() + comm.bytesReceived() - comm0;
+  if (!root) {
+    r.seconds = since(start);
+    if (report) *report = r;
+    return out;
+  }
+  out = enc->finish();
   r.finishSeconds = since(f0);
   r.seconds = since(start);
   r.peakRssBytes = peakRssBytes();
@@ -81,7 +113,8 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
 }
 
 ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, int worst,
-                        const CancelToken* cancel) {
+                        const CancelToken* cancel, Comm* commIn) {
+  Comm& comm = commIn ? *commIn : localComm();
   const BtfInfo& a = ref.info();
   const BtfInfo& b = test.info();
   if (a.nu != b.nu || a.nv != b.nv)
@@ -101,10 +134,13 @@ ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, 
   std::vector<double> dirSum(lv, 0.0);
   double sumErr = 0, sumRef = 0, peak = 0, maxAbs = 0;
   std::mutex mutex;
-  ProgressReporter pr("compare", T, progress);
+  // This rank's texels: a contiguous share.
+  const int64_t lo = T * comm.rank() / comm.size(), hi = T * (comm.rank() + 1) / comm.size();
+  ProgressReporter pr("compare", hi - lo, progress);
   parallelForChunks(
-      T, 8,
-      [&](int64_t t0, int64_t t1) {
+      hi - lo, 8,
+      [&](int64_t b0, int64_t b1) {
+        const int64_t t0 = lo + b0, t1 = lo + b1;
         std::vector<float> x(lv * 3), y(lv * 3);
         std::vector<double> dirs(lv, 0.0);
         double se = 0, sr = 0, pk = 0, mx = 0;
@@ -138,6 +174,29 @@ ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, 
       cancel);
   if (cancel && cancel->cancelled()) throw Cancelled("compare");
   pr.finish();
+  if (comm.distributed()) {
+    // Sums in rank order; the per-texel errors of every share.
+    std::vector<double> sums = dirSum;
+    sums.push_back(sumErr);
+    sums.push_back(sumRef);
+    sums = sumInRankOrder(comm, sums);
+    sumErr = sums[lv];
+    sumRef = sums[lv + 1];
+    sums.resize(lv);
+    dirSum = sums;
+    std::vector<double> mx = {peak, maxAbs};
+    for (const std::string& s : comm.allgather(packDoubles(mx))) {
+      const std::vector<double> v = unpackDoubles(s);
+      peak = std::max(peak, v[0]);
+      maxAbs = std::max(maxAbs, v[1]);
+    }
+    const std::vector<std::string> all = comm.allgather(std::string(
+        reinterpret_cast<const char*>(r.texelRmse.data() + lo), size_t(hi - lo) * sizeof(float)));
+    for (int q = 0; q < comm.size(); ++q) {
+      const int64_t a = T * q / comm.size();
+      std::memcpy(r.texelRmse.data() + a, all[size_t(q)].data(), all[size_t(q)].size());
+    }
+  }
   r.values = T * int64_t(lv) * 3;
   r.rmse = std::sqrt(sumErr / double(r.values));
   r.refRms = std::sqrt(sumRef / double(r.values));

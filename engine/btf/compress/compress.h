@@ -3,6 +3,7 @@
 // (raw or compressed) with ratio, RMSE, relative RMSE, PSNR and per-texel / per-direction maps.
 #pragma once
 #include <btf/compress/codec.h>
+#include <btf/core/comm.h>
 
 #include <string>
 #include <vector>
@@ -14,11 +15,23 @@ struct CompressReport {
   uint64_t peakRssBytes = 0, fileBytes = 0;
   double ratio = 0;
   int64_t texels = 0;
+  // A cluster job: ranks, this rank's encoded texels and its communicated bytes.
+  int ranks = 1;
+  int64_t texelsEncoded = 0;
+  uint64_t commBytes = 0;
 };
 
 /// Encodes every texel of a raw store (training texels first). Progress on stderr when asked.
+/// With a distributed `comm` (docs/cluster.md) every rank reads and trains on the training
+/// texels, encodes its turn of the chunks, and rank 0 merges the ranks' states in rank order and
+/// finishes: the same bytes as one process. Ranks other than 0 return an empty CompressedBtf.
 CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, bool progress,
-                            const CancelToken* cancel, CompressReport* report);
+                            const CancelToken* cancel, CompressReport* report,
+                            Comm* comm = nullptr);
+
+/// Rank 0 of a cluster job merges every rank's encoder state (addedState) in rank order and
+/// returns true; other ranks send theirs and return false.
+bool gatherEncoder(Comm& comm, Encoder& enc);
 
 struct ErrorReport {
   int nu = 0, nv = 0, nDirs = 0;
@@ -34,8 +47,10 @@ struct ErrorReport {
 };
 
 /// Both BTFs must share texels and directions (btf::Error otherwise).
+/// With a distributed `comm` each rank compares a contiguous share of the texels and every rank
+/// gets the whole report.
 ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, int worst = 10,
-                        const CancelToken* cancel = nullptr);
+                        const CancelToken* cancel = nullptr, Comm* comm = nullptr);
 /// texel_rmse.{exr,png} and direction_rmse.{exr,png} in dir (PNG scaled to its maximum).
 void writeErrorMaps(const ErrorReport& r, const std::string& dir);
 std::string errorReportJson(const ErrorReport& r);

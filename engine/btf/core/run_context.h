@@ -3,6 +3,7 @@
 // (never process-wide: a studio job never slows the preview worker), the memory budget, and
 // whether progress bars are printed. The use cases of btf/ops take one; stages take its parts.
 #pragma once
+#include <btf/core/comm.h>
 #include <btf/core/error.h>
 #include <btf/core/parallel.h>
 
@@ -40,6 +41,9 @@ struct RunContext {
   uint64_t memoryBudget = uint64_t(4) << 30;  // refusal above it, with the figures
   bool progress = true;                       // bars on stderr (the studio polls instead)
   bool keepPartial = false;  // on Cancelled, keep OUTPUT.partial for a resume (studio's "stop")
+  /// The job's processes (docs/cluster.md): null = this process alone.
+  Comm* comm = nullptr;
+  Comm& processes() const { return comm ? *comm : localComm(); }
   void check(const char* stage) const { throwIfCancelled(cancel, stage); }
 };
 

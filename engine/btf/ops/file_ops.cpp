@@ -56,12 +56,20 @@ void compress(const Call& c) {
   CodecSettings cs = codecSettings(r, r.s("codec"));
   cs.memoryBudget = parseBytes(r.s("memory_budget"));
   CompressReport rep;
-  const CompressedBtf b = compressStore(r.s("input"), cs, c.progress(), c.ctx.cancel, &rep);
+  Comm& comm = c.ctx.processes();
+  const CompressedBtf b =
+      compressStore(r.s("input"), cs, c.progress(), c.ctx.cancel, &rep, &comm);
+  json& j = c.rep.json;
+  if (comm.distributed()) {
+    BtfReader in(r.s("input"));
+    j["cluster"] = clusterJson(comm, rep.texelsEncoded, double(in.info().texelBytes()),
+                               rep.commBytes);
+    if (!comm.root()) return;  // rank 0 writes and reports
+  }
   c.ctx.check("encoder");
   writeCompressed(r.s("output"), b);
   c.rep.outputs.push_back(r.s("output"));
   warnTarget(c, b);
-  json& j = c.rep.json;
   j["input"] = r.s("input");
   j["output"] = r.s("output");
   j["codec"] = json::parse(b.paramsJson);
@@ -74,7 +82,8 @@ void compress(const Call& c) {
   j["compressed_bytes"] = rep.fileBytes;
   j["ratio"] = rep.ratio;
   j["peak_memory_bytes"] = rep.peakRssBytes;
-  c.rep.text = "wrote " + r.s("output") + "\n" + compressedText(b, rep.seconds, rep.peakRssBytes);
+  c.rep.text = "wrote " + r.s("output") + "\n" + compressedText(b, rep.seconds, rep.peakRssBytes) +
+               (comm.distributed() ? clusterText(j["cluster"]) : std::string());
   c.rep.summary = format("wrote %s, ratio 1:%.0f in %s", r.s("output").c_str(), b.ratio(),
                          formatSeconds(rep.seconds).c_str());
   if (r.b("compare")) {
@@ -89,10 +98,17 @@ void compress(const Call& c) {
 
 void compare(const Call& c) {
   const Request& r = c.r;
-  const auto A = openBtf(r.s("a"));
-  const auto B = openBtf(r.s("b"));
-  const ErrorReport e = compareBtfs(*A, *B, c.progress(), r.i("worst"), c.ctx.cancel);
-  if (!r.s("maps").empty()) writeErrorMaps(e, r.s("maps"));
+  Comm& comm = c.ctx.processes();
+  std::unique_ptr<Decoder> A, B;
+  collectively(comm, [&] {
+    A = openBtf(r.s("a"));
+    B = openBtf(r.s("b"));
+  });
+  ErrorReport e;
+  collectively(comm, [&] {
+    e = compareBtfs(*A, *B, c.progress(), r.i("worst"), c.ctx.cancel, &comm);
+  });
+  if (!r.s("maps").empty() && comm.root()) writeErrorMaps(e, r.s("maps"));
   auto ratioOf = [](const std::string& p) {
     return isCompressedFile(p) ? readCompressed(p).ratio() : 1.0;
   };
@@ -108,8 +124,12 @@ void compare(const Call& c) {
   if (!r.s("noise").empty()) {
     // Two independent simulations differ by √2 × the noise of one: that is A's own floor. B's
     // error in excess of it adds in quadrature (independent errors).
-    const auto N = openBtf(r.s("noise"));
-    const ErrorReport f = compareBtfs(*A, *N, c.progress(), 0, c.ctx.cancel);
+    std::unique_ptr<Decoder> N;
+    ErrorReport f;
+    collectively(comm, [&] {
+      N = openBtf(r.s("noise"));
+      f = compareBtfs(*A, *N, c.progress(), 0, c.ctx.cancel, &comm);
+    });
     const double floorRmse = f.rmse / std::sqrt(2.0), floorRel = f.relRmse / std::sqrt(2.0);
     const double excessRel = std::sqrt(std::max(0.0, e.relRmse * e.relRmse - floorRel * floorRel));
     j["noise"] = {{"path", r.s("noise")},

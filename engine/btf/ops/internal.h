@@ -46,6 +46,11 @@ void info(const Call& c);
 void slice(const Call& c);
 void study(const Call& c);
 
+/// A cluster job's figures (docs/cluster.md): per rank, texels computed or encoded and bytes
+/// communicated, against that rank's bytes of aBRDF. Every rank calls it (a collective).
+json clusterJson(Comm& comm, int64_t texels, double texelBytes, uint64_t commBytes);
+std::string clusterText(const json& cluster);
+
 /// "1,2,3" → items; throws naming the option when empty.
 std::vector<std::string> splitList(const std::string& s, const std::string& what);
 std::vector<int> intList(const std::string& s, const std::string& what, int lo, int hi);

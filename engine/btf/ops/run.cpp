@@ -181,17 +181,21 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
   const bool folderOut =
       r.command() == "study" || (r.command() == "export" && r.s("format") == "ubo2003");
   std::unique_ptr<OutputLock> lock;
+  collectively(ctx.processes(), [&] {
+  r.validate();
   if (!out.empty()) {
     checkOutputPath(out, folderOut);
-    if (!folderOut) lock = std::make_unique<OutputLock>(out);
+    // In a cluster job rank 0 holds the lock and makes the folder for the job's ranks.
+    if (!folderOut && ctx.processes().root()) lock = std::make_unique<OutputLock>(out);
     // A folder output is made now, so a folder that cannot be written is refused before work.
-    if (folderOut) makeFolder(out);
+    if (folderOut && ctx.processes().root()) makeFolder(out);
   }
+  });
   // A failed run leaves no output it began (an export's folder); a simulation keeps its
   // .partial for --resume.
   auto cleanUp = [&] {
     std::error_code ec;
-    if (!out.empty() && !outExisted) fs::remove_all(out, ec);
+    if (!out.empty() && !outExisted && ctx.processes().root()) fs::remove_all(out, ec);
   };
   try {
     withThreads(ctx.threads, [&] {

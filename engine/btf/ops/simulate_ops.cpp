@@ -75,25 +75,79 @@ json planJson(const EffectPlan& p) {
 void warnTarget(const Call& c, const CompressedBtf& b);
 std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss);
 
+json clusterJson(Comm& comm, int64_t texels, double texelBytes, uint64_t commBytes) {
+  // Per rank: texels, bytes of aBRDF it computed or encoded, bytes it sent and received.
+  const std::vector<double> mine = {double(texels), double(texels) * texelBytes,
+                                    double(commBytes)};
+  json ranks = json::array();
+  double worst = 0, maxBytes = 0;
+  for (const std::string& s : comm.allgather(packDoubles(mine))) {
+    const std::vector<double> v = unpackDoubles(s);
+    const double share = v[1] > 0 ? v[2] / v[1] : 0;
+    worst = std::max(worst, share);
+    maxBytes = std::max(maxBytes, v[2]);
+    ranks.push_back({{"texels", int64_t(v[0])},
+                     {"data_bytes", v[1]},
+                     {"communicated_bytes", v[2]},
+                     {"communicated_fraction", share}});
+  }
+  return {{"ranks", comm.size()},
+          {"communicator", comm.describe()},
+          {"max_communicated_bytes", maxBytes},
+          {"max_communicated_fraction", worst},
+          {"per_rank", ranks}};
+}
+
+std::string clusterText(const json& cl) {
+  std::string t = format("  cluster: %s; per rank:", cl["communicator"].get<std::string>().c_str());
+  int r = 0;
+  for (const auto& x : cl["per_rank"])
+    t += format(" [%d] %lld texels, %s sent+received (%.3f %% of its data)", r++,
+                (long long)x["texels"].get<int64_t>(),
+                formatBytes(x["communicated_bytes"].get<double>()).c_str(),
+                100 * x["communicated_fraction"].get<double>());
+  return t + "\n";
+}
+
 void simulate(const Call& c) {
   const Request& r = c.r;
-  const Scene scene = c.scene();
-  SimOptions o = simOptions(scene, r);
-  o.progress = c.progress();
+  Comm& comm = c.ctx.processes();
   const std::string& output = r.s("output");
   const std::string codec = r.s("compress");
-  if (!codec.empty()) {
-    const auto& names = codecNames();
-    if (std::find(names.begin(), names.end(), codec) == names.end())
-      throw Error("--compress: unknown codec '" + codec +
-                  "' (expected nmf, svd, perview, lpca or tensor)");
-  }
-  SimulationJob job(scene, o);
-  job.setCancel(c.ctx.cancel);
-  const SimEstimate est = job.estimate(codec.empty() ? output : std::string());
+  // Every rank of a cluster job builds the same job (checked) and agrees before the work.
+  std::unique_ptr<SimulationJob> jobPtr;
+  SimOptions o;
+  SimEstimate est;
+  collectively(comm, [&] {
+    const Scene scene = c.scene();
+    o = simOptions(scene, r);
+    o.progress = c.progress();
+    if (!codec.empty()) {
+      const auto& names = codecNames();
+      if (std::find(names.begin(), names.end(), codec) == names.end())
+        throw Error("--compress: unknown codec '" + codec +
+                    "' (expected nmf, svd, perview, lpca or tensor)");
+    }
+    jobPtr = std::make_unique<SimulationJob>(scene, o);
+    jobPtr->setCancel(c.ctx.cancel);
+    est = jobPtr->estimate(codec.empty() ? output : std::string());
+  });
+  SimulationJob& job = *jobPtr;
+  const Scene& scene = job.scene();
+  requireSame(comm, "the scene and its geometry", job.sceneHash());
+  job.setComm(&comm);
   c.notice("effect plan (" + o.method + "):\n" + planText(job.plan()));
   c.notice(estimateText(est, o, !codec.empty()));
-  if (!est.refusal.empty()) throw Error("refusing to start: " + est.refusal);
+  if (comm.distributed())
+    c.notice(format("cluster job: %s; %d chunk(s) over %d rank(s), %d thread(s) each",
+                    comm.describe().c_str(), est.chunks, comm.size(), est.threads));
+  collectively(comm, [&] {
+    if (!est.refusal.empty())
+      throw Error("refusing to start: " +
+                  (comm.distributed() ? format("rank %d of %d (the budget is per rank): ", comm.rank(), comm.size())
+                                      : std::string()) +
+                  est.refusal);
+  });
   json& j = c.rep.json;
   j["output"] = output;
   j["scene"] = scene.name;
@@ -135,7 +189,15 @@ void simulate(const Call& c) {
       encodeSeconds += since(s0);
     });
     const auto start = Clock::now();
+    const uint64_t comm0 = comm.bytesSent() + comm.bytesReceived();
     const SimReport sr = job.run("", est, c.ctx.cancel);
+    // A cluster job: each rank encoded the chunks it simulated; rank 0 merges and finishes.
+    bool root = true;
+    collectively(comm, [&] { root = gatherEncoder(comm, *enc); });
+    const uint64_t commBytes = comm.bytesSent() + comm.bytesReceived() - comm0;
+    if (comm.distributed())
+      j["cluster"] = clusterJson(comm, sr.texelsComputed, double(info.texelBytes()), commBytes);
+    if (!root) return;
     const auto f0 = Clock::now();
     const CompressedBtf b = enc->finish();
     const double finishSeconds = since(f0);
@@ -156,6 +218,7 @@ void simulate(const Call& c) {
     j["ratio"] = b.ratio();
     j["peak_memory_bytes"] = rss;
     c.rep.text =
+        (comm.distributed() ? clusterText(j["cluster"]) : std::string()) +
         format(
             "wrote %s\n  %d x %d texels, %d directions (%s); wall %s: simulation %s, "
             "encoding %s, finish (PCA) %s\n",
@@ -169,6 +232,10 @@ void simulate(const Call& c) {
   }
   const SimReport sr = job.run(output, est, c.ctx.cancel);
   if (!sr.resumeNote.empty()) c.warn(sr.resumeNote);
+  if (comm.distributed())
+    j["cluster"] =
+        clusterJson(comm, sr.texelsComputed, double(job.storeInfo(est.chunkTexels).texelBytes()),
+                    sr.commBytes);
   const double evalRate = sr.evalSeconds > 0 ? double(sr.abrdfValues) / sr.evalSeconds : 0;
   const double rayRate = sr.hitMapSeconds > 0 ? double(sr.hitMapRays) / sr.hitMapSeconds : 0;
   j["network_points"] = sr.networkPoints;
@@ -215,6 +282,7 @@ void simulate(const Call& c) {
         formatSeconds(sr.renderSeconds).c_str(), formatSeconds(sr.lightSeconds).c_str());
   t += format("  peak memory %s; chunks %d (%d resumed)\n",
               formatBytes(double(sr.peakRssBytes)).c_str(), sr.chunks, sr.chunksResumed);
+  if (comm.distributed()) t += clusterText(j["cluster"]);
   c.rep.text = t;
   c.rep.summary =
       format("wrote %s (%s) in %s", output.c_str(), formatBytes(double(sr.outputBytes)).c_str(),

@@ -178,8 +178,17 @@ void study(const Call& c) {
              "probe pair",
              scene.name.c_str(), configs.size(), o.nu, o.nv, o.referenceSamples));
   const std::string& dir = r.s("output");
-  makeFolder(dir);
-  const Study st = runStudy(scene, o);
+  Comm& comm = c.ctx.processes();
+  o.comm = &comm;
+  if (comm.root()) makeFolder(dir);
+  if (comm.distributed())
+    c.notice(format("cluster job: %s; configuration i runs on rank i mod %d, each with %d "
+                    "thread(s): the times are theirs",
+                    comm.describe().c_str(), comm.size(), currentThreads()));
+  Study st;
+  collectively(comm, [&] { st = runStudy(scene, o); });
+  // Rank 0 writes the tables (and runs the compression study, alone).
+  if (!comm.root()) return;
   writeStudy(st, dir);
   std::string t = format("%-52s %9s %8s %8s %8s %7s\n", "configuration", "time", "interp.",
                          "at set", "image", "Pareto");

@@ -42,6 +42,25 @@ std::string AdaptiveStats::histogramText() const {
   return s;
 }
 
+std::vector<double> AdaptiveStats::toVector() const {
+  std::vector<double> v;
+  for (const auto& x : values) v.push_back(double(x.load()));
+  for (const auto* x : {&samples, &texelViews, &edgeTexelViews, &cameraRays})
+    v.push_back(double(x->load()));
+  v.push_back(errorSq.load());
+  v.push_back(valueSq.load());
+  return v;
+}
+
+void AdaptiveStats::assign(const std::vector<double>& v) {
+  BTF_CHECK(v.size() == size_t(kLevels) + 6);
+  size_t i = 0;
+  for (auto& x : values) x = uint64_t(v[i++]);
+  for (auto* x : {&samples, &texelViews, &edgeTexelViews, &cameraRays}) *x = uint64_t(v[i++]);
+  errorSq = v[i++];
+  valueSq = v[i++];
+}
+
 std::string AdaptiveStats::json() const {
   nlohmann::ordered_json j;
   nlohmann::ordered_json h = nlohmann::ordered_json::object();

@@ -49,6 +49,9 @@ struct AdaptiveStats {
   double estimatedRelativeError() const;
   /// "4²: 71 %, 16²: 22 %, …"
   std::string histogramText() const;
+  /// Every counter as numbers, and their sum over the ranks of a cluster job.
+  std::vector<double> toVector() const;
+  void assign(const std::vector<double>& v);
 };
 
 class AdaptiveTexelSampler {

@@ -315,6 +315,11 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   perChunk = std::min<uint64_t>(perChunk, std::max<uint64_t>(1, m_opt.maxChunkBytes / texelBytes));
   if (m_opt.maxChunkTexels > 0)
     perChunk = std::min<uint64_t>(perChunk, uint64_t(m_opt.maxChunkTexels));
+  // At least ~256 chunks of a multiple of 32 texels (32 at the least): the unit of resume and of
+  // the work a cluster job spreads over its ranks (docs/cluster.md). The rule does not depend
+  // on the rank count, so every rank count writes the same file.
+  perChunk = std::min<uint64_t>(
+      perChunk, std::max<uint64_t>(32, (uint64_t(texels) + 255) / 256 + 31) / 32 * 32);
   perChunk = std::min<uint64_t>(perChunk, uint64_t(texels));
   e.chunkTexels = int(perChunk);
   e.chunkBytes = perChunk * texelBytes;
@@ -460,8 +465,36 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   const bool pt = m_opt.method == "pt";
   const bool gi = !pt && pl.interreflection;
   const BtfInfo info = storeInfo(est.chunkTexels);
+  Comm& comm = m_comm ? *m_comm : localComm();
+  const bool dist = comm.distributed();
+  const uint64_t comm0 = comm.bytesSent() + comm.bytesReceived();
   std::unique_ptr<BtfWriter> writer;
-  if (!outPath.empty()) writer = std::make_unique<BtfWriter>(outPath, info, m_opt.resume);
+  if (!outPath.empty() && !dist) writer = std::make_unique<BtfWriter>(outPath, info, m_opt.resume);
+  if (!outPath.empty() && dist) {
+    // Rank 0 creates or resumes (and verifies) the partial; then the others open it, and learn
+    // from rank 0 which chunks are done.
+    collectively(comm, [&] {
+      if (comm.root()) writer = std::make_unique<BtfWriter>(outPath, info, m_opt.resume);
+    });
+    collectively(comm, [&] {
+      if (!comm.root()) writer = std::make_unique<BtfWriter>(outPath, info, BtfWriter::Attach{});
+    });
+    std::string done;
+    if (comm.root()) done.assign(writer->doneFlags().begin(), writer->doneFlags().end());
+    comm.broadcast(done, 0);
+    if (!comm.root()) writer->setDone(std::vector<uint8_t>(done.begin(), done.end()));
+  }
+  // This rank's chunks: the missing ones in turn (chunks hold equal texel counts, so turns
+  // balance the estimated cost; neighbouring chunks, alike in cost, go to different ranks).
+  std::vector<uint8_t> mine(size_t(info.chunks()), 1);
+  if (dist) {
+    int k = 0;
+    for (int c = 0; c < info.chunks(); ++c) {
+      if (writer && writer->chunkDone(c)) continue;
+      mine[size_t(c)] = (k++ % comm.size()) == comm.rank();
+    }
+  }
+  r.ranks = comm.size();
   r.chunks = info.chunks();
   r.chunksResumed = writer ? writer->chunksDone() : 0;
   if (writer) r.resumeNote = writer->resumeNote();
@@ -484,7 +517,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   r.precomputeSeconds = r.hitMapSeconds + (gi ? r.networkSeconds : 0);
   throwIfCancelled(cancel, "hit maps");
   const int nD = m_dirs.size();
-  if (writer) {
+  if (writer && comm.root()) {
     std::vector<float> vmf;
     if (info.hasVmf) {
       vmf.reserve(size_t(nD) * size_t(info.texels()) * 2);
@@ -530,8 +563,11 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   kernel.pt.seed = m_opt.seed;
   for (const auto& d : m_dirs.dirs()) kernel.lights.push_back(DVec3(Vec3(d.w)));
 
-  const char* abortEnv = std::getenv("BTF_TEST_ABORT_AFTER_CHUNKS");  // test hook: simulates a kill
-  const int abortAfter = abortEnv ? std::atoi(abortEnv) : -1;
+  // Test hooks: a kill after N chunks (of rank BTF_TEST_ABORT_RANK only, when set).
+  const char* abortEnv = std::getenv("BTF_TEST_ABORT_AFTER_CHUNKS");
+  const char* abortRank = std::getenv("BTF_TEST_ABORT_RANK");
+  const int abortAfter =
+      abortEnv && (!abortRank || std::atoi(abortRank) == comm.rank()) ? std::atoi(abortEnv) : -1;
   int written = 0;
   // Two buffers: chunk c is written by a background task while chunk c + 1 is computed.
   std::vector<float> buffers[2];
@@ -551,35 +587,61 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     const int64_t n = int64_t(m_trainTexels.size());
     const size_t stride = size_t(nD) * size_t(nD) * 3;
     std::vector<float> values(size_t(n) * stride, 0.f);
-    ProgressReporter tp("training texels", n, m_opt.progress);
+    // A cluster job: rank r computes the training texels r, r + N, …, then every rank gets all.
+    const int64_t R = comm.size(), me = comm.rank();
+    const int64_t myN = n / R + (me < n % R ? 1 : 0);
+    std::vector<float> local(size_t(myN) * stride, 0.f);
+    ProgressReporter tp("training texels", myN, m_opt.progress);
     parallelForChunks(
-        n * nD, pt ? 1 : 8,
+        myN * nD, pt ? 1 : 8,
         [&](int64_t b, int64_t e) {
           for (int64_t k = b; k < e; ++k) {
-            const int64_t t = m_trainTexels[size_t(k / nD)];
+            const int64_t t = m_trainTexels[size_t((k / nD) * R + me)];
             const int view = int(k % nD);
             kernel.eval(int(t % m_opt.nu), int(t / m_opt.nu), view,
-                        &values[size_t(k / nD) * stride + size_t(view) * nD * 3]);
+                        &local[size_t(k / nD) * stride + size_t(view) * nD * 3]);
             if (view == nD - 1) tp.add(1);
           }
         },
         cancel);
     throwIfCancelled(cancel, "training texels");
     tp.finish();
+    if (!dist) {
+      values.swap(local);
+    } else {
+      const std::vector<std::string> all = comm.allgather(
+          std::string(reinterpret_cast<const char*>(local.data()), local.size() * sizeof(float)));
+      for (int64_t q = 0; q < R; ++q) {
+        const float* src = reinterpret_cast<const float*>(all[size_t(q)].data());
+        for (int64_t i = q, j = 0; i < n; i += R, ++j)
+          std::copy(src + size_t(j) * stride, src + size_t(j + 1) * stride,
+                    values.begin() + ptrdiff_t(size_t(i) * stride));
+      }
+    }
     m_trainSink(values.data());
     if (m_onlyTrainingTexels) {
       r.wallSeconds = since(start);
       return r;
     }
   }
-  ProgressReporter pr("aBRDF", info.texels(), m_opt.progress);
+  int64_t myTexels = 0;
+  for (int c = 0; c < info.chunks(); ++c)
+    if (mine[size_t(c)] && !(writer && writer->chunkDone(c)))
+      myTexels += info.chunkEnd(c) - info.chunkBegin(c);
+  ProgressReporter pr("aBRDF", dist ? myTexels : info.texels(), m_opt.progress);
   const auto evalStart = Clock::now();
+  // On one rank, a failure ends the run here; in a cluster job every rank first reaches the
+  // agreement below (so none waits forever), then all fail with the failing rank's message.
+  collectively(comm, [&] {
   for (int c = 0; c < info.chunks(); ++c) {
     const int64_t t0 = info.chunkBegin(c), t1 = info.chunkEnd(c);
+    if (!mine[size_t(c)]) continue;
     if (writer && writer->chunkDone(c)) {
       pr.add(t1 - t0);
       continue;
     }
+    ++r.chunksComputed;
+    r.texelsComputed += t1 - t0;
     const size_t stride = size_t(nD) * size_t(nD) * 3;
     std::vector<float>& chunk = buffers[cur];
     chunk.assign(size_t(t1 - t0) * stride, 0.f);
@@ -614,11 +676,24 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     }
   }
   waitWrite();
+  });
   pr.finish();
   // Writes overlap the compute: the time spent waiting for the last one is not compute.
   r.evalSeconds = since(evalStart);
   r.renderSeconds = since(renderStart);
   r.brdfEvaluations = evals.load();
+  if (dist) {
+    // The job's totals, on every rank.
+    std::vector<double> sums = {double(r.abrdfValues), double(r.brdfEvaluations)};
+    if (m_adaptive) {
+      const std::vector<double> a = adStats.toVector();
+      sums.insert(sums.end(), a.begin(), a.end());
+    }
+    sums = sumInRankOrder(comm, sums);
+    r.abrdfValues = uint64_t(sums[0]);
+    r.brdfEvaluations = uint64_t(sums[1]);
+    if (m_adaptive) adStats.assign(std::vector<double>(sums.begin() + 2, sums.end()));
+  }
   if (m_adaptive) {
     r.adaptive = true;
     r.samplingJson = adStats.json();
@@ -627,9 +702,17 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     r.estimatedError = adStats.estimatedRelativeError();
   }
   if (writer) {
-    writer->finish();
+    // In a cluster job every rank's chunks are in the file once all have passed the agreement
+    // above; rank 0 checks the table and renames.
+    collectively(comm, [&] {
+      if (!dist)
+        writer->finish();
+      else if (comm.root())
+        writer->finishShared();
+    });
     r.outputBytes = btfFileBytes(info);
   }
+  r.commBytes = comm.bytesSent() + comm.bytesReceived() - comm0;
   r.wallSeconds = since(start);
   r.peakRssBytes = peakRssBytes();
   return r;

@@ -2,6 +2,7 @@
 // chunks of the raw BTF store. Memory is bounded by the budget (the chunk size follows from it),
 // the estimate of time, memory and disk comes before any work, and runs resume chunk by chunk.
 #pragma once
+#include <btf/core/comm.h>
 #include <btf/core/run_context.h>
 #include <btf/directions/direction_set.h>
 #include <btf/geometry/mesh.h>
@@ -85,7 +86,12 @@ struct SimReport {
   // Adaptive sampling: samples per value (histogram), the error estimate (JSON of AdaptiveStats)
   bool adaptive = false;
   std::string samplingJson, samplingText;
-  double meanSamples = 0, estimatedError = 0;  // a --resume that found a truncated or unreadable .partial
+  double meanSamples = 0, estimatedError = 0;
+  // A cluster job (docs/cluster.md): ranks, the chunks and texels this rank computed, and the
+  // bytes it sent and received through the communicator.
+  int ranks = 1, chunksComputed = 0;
+  int64_t texelsComputed = 0;
+  uint64_t commBytes = 0;
 };
 
 class SimulationJob {
@@ -108,6 +114,11 @@ class SimulationJob {
   /// Cancellation of the set-up work (the point network, the planner's probes, the estimate's
   /// calibration): each throws btf::Cancelled once `cancel` is set. run() takes its own.
   void setCancel(const CancelToken* cancel) { m_cancel = cancel; }
+  /// The processes run() spreads its chunks over (docs/cluster.md); null = this one. Every rank
+  /// builds the same job and calls run() with the same path: rank 0 creates (or resumes) the
+  /// partial and finishes it, each rank computes its share of the missing chunks and writes them
+  /// into it; the sinks see only this rank's chunks. The file is the one a single process writes.
+  void setComm(Comm* comm) { m_comm = comm; }
   /// The effect plan (computed on first use: builds the point network unless inter-reflection is
   /// forced off).
   const EffectPlan& plan() const;
@@ -162,6 +173,7 @@ class SimulationJob {
   TrainingSink m_trainSink;
   bool m_onlyTrainingTexels = false;
   const CancelToken* m_cancel = nullptr;
+  Comm* m_comm = nullptr;
   bool m_adaptive = false;
   int m_mapSpp = 1;
   void checkCancel() const;

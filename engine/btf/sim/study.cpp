@@ -6,6 +6,7 @@
 #include <btf/sim/path_tracer.h>
 #include <btf/sim/simulator.h>
 #include <btf/sim/study.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -182,8 +183,13 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
   for (const Rgb& r : st.reference) refSq += double(glm::dot(r, r));
 
   std::map<std::string, std::vector<Rgb>> setReference;  // per direction set, snapped probes
-  ProgressReporter pr("study", int64_t(configs.size()), o.progress);
-  for (const StudyConfig& c : configs) {
+  Comm& comm = o.comm ? *o.comm : localComm();
+  std::vector<size_t> mine;
+  for (size_t i = size_t(comm.rank()); i < configs.size(); i += size_t(comm.size()))
+    mine.push_back(i);
+  ProgressReporter pr("study", int64_t(mine.size()), o.progress);
+  for (const size_t ci : mine) {
+    const StudyConfig& c = configs[ci];
     if (o.cancel && o.cancel->cancelled()) throw Cancelled("study");
     SimOptions so = base;
     so.method = c.method;
@@ -302,6 +308,61 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
     pr.add(1);
   }
   pr.finish();
+  if (comm.distributed()) {
+    // Every rank's results to rank 0, back in configuration order.
+    nlohmann::json mineJson = nlohmann::json::array();
+    for (const StudyResult& res : st.results) {
+      auto rgb = [](const std::vector<Rgb>& v) {
+        std::vector<float> f;
+        for (const Rgb& x : v) f.insert(f.end(), {x.x, x.y, x.z});
+        return f;
+      };
+      mineJson.push_back({{"seconds", res.seconds},
+                          {"precompute", res.precomputeSeconds},
+                          {"render", res.renderSeconds},
+                          {"probe", res.probeRelRmse},
+                          {"set", res.setRelRmse},
+                          {"probe_max", res.probeMaxRel},
+                          {"image", res.imageRelRmse},
+                          {"points", res.networkPoints},
+                          {"rss", res.peakRssBytes},
+                          {"values", rgb(res.probeValues)},
+                          {"set_values", rgb(res.setValues)},
+                          {"set_reference", rgb(res.setReference)}});
+    }
+    const std::vector<std::string> all = comm.gather(mineJson.dump(), 0);
+    st.results.clear();
+    if (!comm.root()) return st;
+    std::vector<StudyResult> ordered(configs.size());
+    for (int q = 0; q < comm.size(); ++q) {
+      const nlohmann::json arr = nlohmann::json::parse(all[size_t(q)]);
+      size_t i = size_t(q);
+      for (const auto& j : arr) {
+        StudyResult& res = ordered[i];
+        res.config = configs[i];
+        res.seconds = j["seconds"];
+        res.precomputeSeconds = j["precompute"];
+        res.renderSeconds = j["render"];
+        res.probeRelRmse = j["probe"];
+        res.setRelRmse = j["set"];
+        res.probeMaxRel = j["probe_max"];
+        res.imageRelRmse = j["image"];
+        res.networkPoints = j["points"];
+        res.peakRssBytes = j["rss"];
+        auto rgb = [](const nlohmann::json& a) {
+          const std::vector<float> f = a.get<std::vector<float>>();
+          std::vector<Rgb> v;
+          for (size_t k = 0; k + 2 < f.size(); k += 3) v.emplace_back(f[k], f[k + 1], f[k + 2]);
+          return v;
+        };
+        res.probeValues = rgb(j["values"]);
+        res.setValues = rgb(j["set_values"]);
+        res.setReference = rgb(j["set_reference"]);
+        i += size_t(comm.size());
+      }
+    }
+    st.results = std::move(ordered);
+  }
   markPareto(st.results);
   return st;
 }

@@ -4,6 +4,7 @@
 // aBRDF over a fixed probe set of direction pairs (the BTF interpolated at the probe directions,
 // so direction discretisation counts), and the per-texel relative RMSE of a few full images.
 #pragma once
+#include <btf/core/comm.h>
 #include <btf/scene/scene.h>
 #include <btf/sim/brdf_probe.h>
 #include <btf/sim/direct.h>
@@ -54,6 +55,9 @@ struct StudyOptions {
   uint64_t seed = 1;
   bool progress = true;
   const CancelToken* cancel = nullptr;  // checked between configurations
+  /// A cluster job (docs/cluster.md): configuration i runs on rank i mod N (each rank computes
+  /// the reference itself); rank 0 gets every result, the other ranks none.
+  Comm* comm = nullptr;
 };
 
 struct Study {

@@ -219,6 +219,40 @@ BtfWriter::BtfWriter(const std::string& path, const BtfInfo& info, bool resume)
   pwriteAll(table.data(), table.size() * sizeof(TableEntry), m_layout.tableOffset);
 }
 
+BtfWriter::BtfWriter(const std::string& path, const BtfInfo& info, Attach)
+    : m_path(path), m_partial(path + ".partial"), m_info(info) {
+  const std::string header = infoToJson(info);
+  m_layout = BtfLayout::of(info, header.size());
+  m_done.assign(size_t(info.chunks()), 0);
+  m_fd = ::open(m_partial.c_str(), O_RDWR);
+  if (m_fd < 0) throw Error(sysError(m_partial, "cannot open the job's partial file"));
+  std::string found(header.size(), '\0');
+  if (::pread(m_fd, found.data(), found.size(), 24) != ssize_t(found.size()) || found != header)
+    throw Error(m_partial +
+                ": its header differs from this rank's job (another scene or settings, or the "
+                "file system does not show rank 0's file to this node)");
+  m_resumed = true;
+}
+
+void BtfWriter::setDone(const std::vector<uint8_t>& done) {
+  BTF_CHECK(done.size() == m_done.size());
+  m_done = done;
+}
+
+void BtfWriter::finishShared() {
+  std::vector<TableEntry> table(m_done.size());
+  if (::pread(m_fd, table.data(), table.size() * sizeof(TableEntry),
+              off_t(m_layout.tableOffset)) != ssize_t(table.size() * sizeof(TableEntry)))
+    throw Error(sysError(m_partial, "cannot read back the chunk table"));
+  for (size_t c = 0; c < table.size(); ++c) {
+    if (table[c].state != kDone)
+      throw Error(m_partial + ": cannot finish: chunk " + std::to_string(c) +
+                  " was not written by any rank");
+    m_done[c] = 1;
+  }
+  finish();
+}
+
 BtfWriter::~BtfWriter() {
   if (m_fd >= 0) ::close(m_fd);
 }

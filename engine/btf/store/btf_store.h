@@ -58,11 +58,19 @@ class BtfWriter {
   /// (same scene, settings and layout), else btf::Error says so; its finished chunks are
   /// verified and kept. Without resume any partial is started over.
   BtfWriter(const std::string& path, const BtfInfo& info, bool resume);
+  /// Another rank's view of the partial that rank 0 created or resumed (docs/cluster.md): opens
+  /// it for writing chunks without touching its header, table or VMF; which chunks are done
+  /// comes from rank 0 (setDone). Never finishes: rank 0 does (finishShared).
+  struct Attach {};
+  BtfWriter(const std::string& path, const BtfInfo& info, Attach);
   ~BtfWriter();
   BtfWriter(const BtfWriter&) = delete;
   BtfWriter& operator=(const BtfWriter&) = delete;
 
   bool chunkDone(int c) const { return m_done[size_t(c)] != 0; }
+  /// One byte per chunk, 1 when done (what rank 0 sends to the others).
+  const std::vector<uint8_t>& doneFlags() const { return m_done; }
+  void setDone(const std::vector<uint8_t>& done);
   int chunksDone() const;
   bool resumed() const { return m_resumed; }
   /// What resuming found, when it was not a clean resume (a truncated or unreadable .partial):
@@ -74,6 +82,9 @@ class BtfWriter {
   void writeChunk(int c, const float* data);
   /// Flushes, then renames the partial onto the final path (atomic replace).
   void finish();
+  /// finish() after other processes wrote chunks into the same partial: the table is read back
+  /// from the file and every chunk must be marked done there.
+  void finishShared();
   const std::string& partialPath() const { return m_partial; }
 
  private:
