@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <set>
 #include <memory>
 #include <sstream>
 
@@ -171,6 +172,21 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
   r.validate();
   RunContext ctx = ctxIn;
   if (r.given("threads")) ctx.threads = r.i("threads");
+  // A cluster job (docs/cluster.md) spreads simulate, compress, compare and study over its ranks;
+  // any other command runs on rank 0 alone while the others wait for it.
+  static const std::set<std::string> kDistributed = {"simulate", "compress", "compare", "study"};
+  if (ctx.processes().distributed() && !kDistributed.count(r.command())) {
+    Comm& comm = ctx.processes();
+    Report rep;
+    rep.command = r.command();
+    collectively(comm, [&] {
+      if (!comm.root()) return;
+      RunContext alone = ctxIn;
+      alone.comm = nullptr;
+      rep = run(r, alone, notes, scene);
+    });
+    return rep;
+  }
   Report rep;
   rep.command = r.command();
   const detail::Call c{r, ctx, notes, rep, scene};

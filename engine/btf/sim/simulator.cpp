@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <csignal>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -579,6 +580,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     if (++written == abortAfter) {
       std::fprintf(stderr, "\nBTF_TEST_ABORT_AFTER_CHUNKS: exiting abruptly after %d chunk(s)\n",
                    written);
+      if (std::getenv("BTF_TEST_ABORT_KILL")) std::raise(SIGKILL);  // as `kill -9` would
       std::_Exit(75);
     }
   };

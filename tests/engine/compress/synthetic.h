@@ -25,7 +25,7 @@ inline BtfInfo syntheticInfo(int nu, int nv, const std::string& dirs) {
   info.chunkTexels = 7;
   info.hasVmf = false;
   info.sceneName = "synthetic";
-  info.sceneHash = "0";
+  info.sceneHash = std::string(1, '0');  // (a string literal trips GCC 12 -Wrestrict)
   info.sceneJson = "{}";
   info.plan = "{}";
   return info;

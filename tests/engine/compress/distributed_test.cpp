@@ -1,0 +1,119 @@
+// What a cluster job relies on, without MPI (docs/cluster.md): encoders that each add a share of
+// the texels and are merged (addedState / mergeAdded) write the arrays one encoder fed every
+// texel writes, for every codec; corrupt states are refused; the one-process communicator's
+// collectives and agreements.
+#include <btf/compress/compress.h>
+#include <btf/core/comm.h>
+#include <btf/core/error.h>
+#include <gtest/gtest.h>
+
+#include "engine/compress/synthetic.h"
+#include "test_util.h"
+
+using namespace btf;
+using namespace btf::test;
+
+namespace {
+
+std::unique_ptr<Encoder> trained(const CodecSettings& s, const BtfInfo& info,
+                                 const std::vector<float>& values) {
+  auto enc = makeEncoder(s, info);
+  const size_t stride = size_t(info.nDirs()) * info.nDirs() * 3;
+  const auto train = enc->trainingTexels();
+  if (!train.empty()) {
+    std::vector<float> tv;
+    for (int64_t t : train)
+      tv.insert(tv.end(), values.begin() + long(size_t(t) * stride),
+                values.begin() + long(size_t(t + 1) * stride));
+    enc->train(tv.data());
+  }
+  return enc;
+}
+
+}  // namespace
+
+TEST(Distributed, EncodersMergedFromThreeRanksWriteTheSameArraysAsOne) {
+  const BtfInfo info = syntheticInfo(7, 6, "4x8");
+  const auto values = syntheticValues(info, {3, 4, 20}, 30.0);
+  const size_t stride = size_t(info.nDirs()) * info.nDirs() * 3;
+  for (const std::string& codec : codecNames()) {
+    CodecSettings s;
+    s.codec = codec;
+    s.trainTexels = 16;
+    s.clusters = 3;
+    s.targetRatio = 8;
+    auto one = trained(s, info, values);
+    one->add(0, info.texels(), values.data());
+    const CompressedBtf single = one->finish();
+    // Three "ranks": chunk c of 5 texels goes to rank c mod 3; rank 0 merges 1 and 2.
+    std::vector<std::unique_ptr<Encoder>> ranks;
+    for (int q = 0; q < 3; ++q) ranks.push_back(trained(s, info, values));
+    for (int64_t t0 = 0, c = 0; t0 < info.texels(); t0 += 5, ++c) {
+      const int64_t t1 = std::min<int64_t>(info.texels(), t0 + 5);
+      ranks[size_t(c % 3)]->add(t0, t1, values.data() + size_t(t0) * stride);
+    }
+    for (int q = 1; q < 3; ++q) ranks[0]->mergeAdded(ranks[size_t(q)]->addedState());
+    const CompressedBtf merged = ranks[0]->finish();
+    ASSERT_EQ(single.arrays.size(), merged.arrays.size()) << codec;
+    for (size_t i = 0; i < merged.arrays.size(); ++i)
+      EXPECT_TRUE(single.arrays[i].data == merged.arrays[i].data)
+          << codec << " " << merged.arrays[i].name;
+    EXPECT_EQ(single.paramsJson, merged.paramsJson) << codec;
+    EXPECT_EQ(single.statsJson, merged.statsJson) << codec;
+    // A rank that never received its share: finish names the missing texel.
+    auto partial = trained(s, info, values);
+    partial->add(0, 5, values.data());
+    EXPECT_THROW(partial->finish(), Error) << codec;
+  }
+}
+
+TEST(Distributed, CorruptEncoderStatesAreRefused) {
+  const BtfInfo info = syntheticInfo(4, 4, "4x8");
+  const auto values = syntheticValues(info, {});
+  for (const std::string& codec : codecNames()) {
+    CodecSettings s;
+    s.codec = codec;
+    s.trainTexels = 8;
+    s.clusters = 2;
+    auto a = trained(s, info, values);
+    a->add(0, 8, values.data());
+    const std::string state = a->addedState();
+    ASSERT_FALSE(state.empty()) << codec;
+    auto b = trained(s, info, values);
+    // Truncated by one byte; a texel index out of range.
+    const std::string cut(state.begin(), state.end() - 1);
+    EXPECT_THROW(b->mergeAdded(cut), Error) << codec;
+    std::string bad = state;
+    const size_t at = codec == "nmf" ? 16 : 0;  // nmf states begin with two counters
+    const int64_t huge = int64_t(1) << 40;
+    std::memcpy(bad.data() + at, &huge, sizeof huge);
+    try {
+      b->mergeAdded(bad);
+      ADD_FAILURE() << codec << ": an out-of-range texel was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("encoder state"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Distributed, TheOneProcessCommunicator) {
+  Comm& c = localComm();
+  EXPECT_EQ(c.rank(), 0);
+  EXPECT_EQ(c.size(), 1);
+  EXPECT_FALSE(c.distributed());
+  EXPECT_EQ(c.allgather("abc"), std::vector<std::string>{"abc"});
+  EXPECT_EQ(sumInRankOrder(c, {1.5, -2}), (std::vector<double>{1.5, -2}));
+  EXPECT_NO_THROW(requireSame(c, "the request", "x"));
+  // One process: its own error, unchanged (not a CollectiveError).
+  try {
+    collectively(c, [] { throw Error("disk full"); });
+    FAIL();
+  } catch (const CollectiveError&) {
+    FAIL() << "one process has nobody to agree with";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "disk full");
+  }
+  const std::vector<double> v = {0.25, 1e300, -0.0};
+  EXPECT_EQ(unpackDoubles(packDoubles(v)), v);
+  EXPECT_THROW(unpackDoubles("abc"), Error);
+}
