@@ -34,7 +34,7 @@ printf '%-52s %10s %10s %10s  %s\n' "job" "1 proc" "np 2" "np 3" "communication 
 for job in simulate stream compress; do
   case $job in
     simulate) args=(simulate "$SCENE" --texels "$TEXELS"); ext=btf ;;
-    stream) args=(simulate "$SCENE" --texels "$TEXELS" --compress nmf); ext=cbtf ;;
+    stream) args=(simulate "$SCENE" --texels "$TEXELS" --compress nmf --target-ratio 300); ext=cbtf ;;
     compress) args=(compress "$T/ref.btf" --codec tensor --target-ratio 300); ext=cbtf ;;
   esac
   [ "$job" = compress ] && [ ! -f "$T/ref.btf" ] && "$BTFSIM" simulate "$SCENE" --texels "$TEXELS" -o "$T/ref.btf" -q > /dev/null

@@ -22,6 +22,7 @@ class MpiComm final : public Comm {
   std::vector<std::string> allgather(const std::string& mine) override;
   void broadcast(std::string& bytes, int root) override;
   std::vector<std::string> gather(const std::string& mine, int root) override;
+  void sumExact(std::vector<Exact>& v) override;
   /// Ranks sharing this rank's node (for the default thread count).
   int localSize() const { return m_localSize; }
   /// Ends every rank of the job (after the caller printed why).
@@ -30,6 +31,8 @@ class MpiComm final : public Comm {
  private:
   int m_rank = 0, m_size = 1, m_localSize = 1, m_nodes = 1;
   std::string m_library;
+  void* m_exactType = nullptr;  // MPI_Datatype and MPI_Op of the 128-bit sums
+  void* m_exactOp = nullptr;
 };
 
 }  // namespace btf

@@ -5,7 +5,6 @@
 // binaries and a per-rank budget that does not fit are refused with their reasons; study and
 // compare give one process's figures. The btfsim built without MPI writes the same files.
 #include <gtest/gtest.h>
-
 #include <sys/wait.h>
 
 #include <cstdio>
@@ -61,9 +60,9 @@ TEST(Cluster, ThreeRanksWriteTheBytesOfOneProcess) {
     const std::string one = (dir / (name + "_1.btf")).string();
     const std::string three = (dir / (name + "_3.btf")).string();
     ASSERT_EQ(runBtfsim("simulate " + scene(name) + " -o " + one + kSmall, &out), 0) << out;
-    ASSERT_EQ(runBtfsim("simulate " + scene(name) + " -o " + three + kSmall + " --json", &out,
-                        mpirun(3)),
-              0)
+    ASSERT_EQ(
+        runBtfsim("simulate " + scene(name) + " -o " + three + kSmall + " --json", &out, mpirun(3)),
+        0)
         << out;
     EXPECT_TRUE(sameFile(one, three)) << name;
     // The report's cluster figures: 3 ranks, every texel computed once.
@@ -81,9 +80,9 @@ TEST(Cluster, ThreeRanksWriteTheBytesOfOneProcess) {
     for (const std::string codec : {"nmf", "tensor"}) {
       const std::string s1 = (dir / (name + "_" + codec + "_1.cbtf")).string();
       const std::string s3 = (dir / (name + "_" + codec + "_3.cbtf")).string();
-      ASSERT_EQ(
-          runBtfsim("simulate " + scene(name) + " -o " + s1 + kSmall + " --compress " + codec, &out),
-          0)
+      ASSERT_EQ(runBtfsim("simulate " + scene(name) + " -o " + s1 + kSmall + " --compress " + codec,
+                          &out),
+                0)
           << out;
       ASSERT_EQ(runBtfsim("simulate " + scene(name) + " -o " + s3 + kSmall + " --compress " + codec,
                           &out, mpirun(3)),
@@ -92,9 +91,10 @@ TEST(Cluster, ThreeRanksWriteTheBytesOfOneProcess) {
       EXPECT_TRUE(sameFile(s1, s3)) << name << " simulate --compress " << codec;
       const std::string c1 = (dir / (name + "_" + codec + "_c1.cbtf")).string();
       const std::string c3 = (dir / (name + "_" + codec + "_c3.cbtf")).string();
-      ASSERT_EQ(runBtfsim("compress " + one + " -o " + c1 + " -q --codec " + codec, &out), 0) << out;
-      ASSERT_EQ(runBtfsim("compress " + one + " -o " + c3 + " -q --codec " + codec, &out, mpirun(3)),
-                0)
+      ASSERT_EQ(runBtfsim("compress " + one + " -o " + c1 + " -q --codec " + codec, &out), 0)
+          << out;
+      ASSERT_EQ(
+          runBtfsim("compress " + one + " -o " + c3 + " -q --codec " + codec, &out, mpirun(3)), 0)
           << out;
       EXPECT_TRUE(sameFile(c1, c3)) << name << " compress " << codec;
     }
@@ -133,9 +133,9 @@ TEST(Cluster, MismatchesAndBudgetsAreRefusedWithTheirReasons) {
   const std::string o = (dir / "m.btf").string();
   std::string out;
   const std::string sim = " simulate " + scene("brick") + " -o " + o + kSmall;
-  const std::string env =
-      "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " + std::string(BTF_MPIRUN) +
-      " --oversubscribe -np 1 " + BTF_BTFSIM + sim + " : -np 1";
+  const std::string env = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " +
+                          std::string(BTF_MPIRUN) + " --oversubscribe -np 1 " + BTF_BTFSIM + sim +
+                          " : -np 1";
   // Rank 1 asks for another sampling.
   EXPECT_NE(runBtfsim(sim + " --spp 2", &out, env), 0);
   EXPECT_NE(out.find("ranks disagree on the request: rank 0"), std::string::npos) << out;
@@ -158,15 +158,16 @@ TEST(Cluster, MismatchesAndBudgetsAreRefusedWithTheirReasons) {
 TEST(Cluster, StudyAndCompareGiveTheFiguresOfOneProcess) {
   const auto dir = tempDir("cluster_study");
   std::string out;
-  const std::string st = " --texels 8 --dirs 4x8 --spp 0,1 --shadows map --network-voxels 0 "
-                         "--gather 4 --links 16 --bounces 3,1 --reference-spp 16 --image-paths 2 "
-                         "--image-spp 1 -q --json";
+  const std::string st =
+      " --texels 8 --dirs 4x8 --spp 0,1 --shadows map --network-voxels 0 "
+      "--gather 4 --links 16 --bounces 3,1 --reference-spp 16 --image-paths 2 "
+      "--image-spp 1 -q --json";
   ASSERT_EQ(runBtfsim("study " + scene("brick") + " -o " + (dir / "s1").string() + st, &out), 0)
       << out;
   const auto a = nlohmann::json::parse(out.substr(out.find('{')));
-  ASSERT_EQ(runBtfsim("study " + scene("brick") + " -o " + (dir / "s3").string() + st, &out,
-                      mpirun(3)),
-            0)
+  ASSERT_EQ(
+      runBtfsim("study " + scene("brick") + " -o " + (dir / "s3").string() + st, &out, mpirun(3)),
+      0)
       << out;
   const auto b = nlohmann::json::parse(out.substr(out.find('{')));
   ASSERT_EQ(a["configurations"].size(), 3u);
@@ -199,10 +200,10 @@ TEST(Cluster, TheBuildWithoutMpiWritesTheSameFile) {
   const std::string a = (dir / "a.btf").string(), b = (dir / "b.btf").string();
   std::string out;
   ASSERT_EQ(runBtfsim("simulate " + scene("vgrooves") + " -o " + a + kSmall, &out), 0) << out;
-  ASSERT_EQ(shell(std::string(BTF_BTFSIM_NOMPI) + " simulate " + scene("vgrooves") + " -o " + b +
-                      kSmall,
-                  &out),
-            0)
+  ASSERT_EQ(
+      shell(std::string(BTF_BTFSIM_NOMPI) + " simulate " + scene("vgrooves") + " -o " + b + kSmall,
+            &out),
+      0)
       << out;
   EXPECT_TRUE(sameFile(a, b));
 }
@@ -241,10 +242,10 @@ TEST(Cluster, TheSlurmScriptsRunUnderAStandInLauncher) {
             0)
       << out;
   EXPECT_TRUE(sameFile(ref, dir / "batch" / "brick.btf"));
-  EXPECT_NE(shell("BTFSIM=" + std::string(BTF_BTFSIM) + " SLURM_ARRAY_TASK_ID=7 bash " + slurm +
-                      "batch.sbatch " + (dir / "scenes.txt").string() + " " +
-                      (dir / "batch").string(),
-                  &out),
-            0);
+  EXPECT_NE(
+      shell("BTFSIM=" + std::string(BTF_BTFSIM) + " SLURM_ARRAY_TASK_ID=7 bash " + slurm +
+                "batch.sbatch " + (dir / "scenes.txt").string() + " " + (dir / "batch").string(),
+            &out),
+      0);
   EXPECT_NE(out.find("has no scene for array task 7"), std::string::npos) << out;
 }

@@ -6,6 +6,7 @@
 #pragma once
 #include <btf/compress/cbtf.h>
 #include <btf/compress/linalg.h>
+#include <btf/core/comm.h>
 #include <btf/core/error.h>
 #include <btf/core/parallel.h>
 #include <btf/store/btf_store.h>
@@ -76,6 +77,11 @@ class Encoder {
   /// before its finish(). The merged encoder writes the bytes one encoder fed every texel writes.
   virtual std::string addedState() const = 0;
   virtual void mergeAdded(const std::string& bytes) = 0;
+  /// finish() over the ranks of a job, each having added its share of the texels: by default
+  /// rank 0 merges every rank's state (addedState) in rank order and finishes; a codec may
+  /// instead reduce its statistics and gather only its output (nmf). Every rank calls it; rank 0
+  /// gets the file, the others an empty CompressedBtf. On one process, finish().
+  virtual CompressedBtf finishOn(Comm& comm);
 };
 
 /// Appends and reads back the plain values of encoder states (addedState / mergeAdded).

@@ -9,11 +9,13 @@
 //   value_c(t, v, l) = Σ_j (Σ_a basis_view[v, a] coef_view[t, j·Cv + a])
 //                        · (Σ_b basis_light[l, b] coef_light[t, j·Cl + b])
 #include <btf/core/error.h>
+#include <btf/core/exact_sum.h>
 #include <btf/core/sysinfo.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <mutex>
 #include <nlohmann/json.hpp>
 
@@ -116,60 +118,143 @@ class NmfEncoder final : public Encoder {
     return uint64_t(m_info.texels()) * 3 * uint64_t(m_s.maxRank) * uint64_t(2 * m_n + 1) * 4;
   }
 
-  CompressedBtf finish() override {
-    for (size_t t = 0; t < m_done.size(); ++t)
-      if (!m_done[t]) throw Error("nmf encoder: texel " + std::to_string(t) + " was never added");
+  CompressedBtf finish() override { return finishOn(localComm()); }
+
+  // Over the ranks of a job (docs/cluster.md): every statistic the file depends on is an exact
+  // sum (btf/core/exact_sum.h) reduced across the ranks — slot counts, residuals, and the PCA
+  // Gram matrices, accumulated per block of texels (32-texel cells cut at the store's chunk
+  // boundaries, so each block is one rank's) — then each rank projects its own texels and rank 0
+  // gathers only the coefficient rows. One process takes the same path: the same bits.
+  CompressedBtf finishOn(Comm& comm) override {
+    const int64_t T = m_info.texels();
+    int64_t local = 0;
+    for (uint8_t d : m_done) local += d;
+    // Slot counts, factor counts, rank histogram, done texels: exact integer sums; K by max.
+    const int H = m_s.maxRank + 1;
+    std::vector<Exact> counts(size_t(3 + H + 1) + 3 * 3, 0);
+    int K[3] = {0, 0, 0};
+    for (int64_t t = 0; t < T; ++t) {
+      if (!m_done[size_t(t)]) continue;
+      for (int c = 0; c < 3; ++c) {
+        const int r = m_f[size_t(t) * 3 + size_t(c)].rank();
+        K[c] = std::max(K[c], r);
+        counts[size_t(c)] += r;
+        if (c == 0) counts[size_t(3 + r)] += 1;
+        const size_t i = size_t(t) * 3 + size_t(c);
+        counts[size_t(3 + H + 1 + c * 3)] += toExact(m_texelErr2[i]);
+        counts[size_t(3 + H + 1 + c * 3 + 1)] += toExact(m_texelEnergy[i]);
+      }
+    }
+    counts[size_t(3 + H)] = local;
+    counts[size_t(3 + H + 1 + 2)] = m_iters;  // spare slot of channel 0: the NMF iterations
+    counts[size_t(3 + H + 1 + 5)] = m_solves;
+    comm.sumExact(counts);
+    if (counts[size_t(3 + H)] != T) {
+      for (int64_t t = 0; t < T; ++t)
+        if (!m_done[size_t(t)] && !comm.distributed())
+          throw Error("nmf encoder: texel " + std::to_string(t) + " was never added");
+      throw Error("nmf encoder: " + std::to_string(int64_t(counts[size_t(3 + H)])) + " of " +
+                  std::to_string(T) + " texels were added over the ranks");
+    }
+    if (comm.distributed()) {
+      std::string mine(reinterpret_cast<const char*>(K), sizeof K);
+      for (const std::string& o : comm.allgather(mine)) {
+        int k[3];
+        std::memcpy(k, o.data(), sizeof k);
+        for (int c = 0; c < 3; ++c) K[c] = std::max(K[c], k[c]);
+      }
+    }
+    int64_t nf[3];
+    double err2 = 0, energy = 0, chanEnergy[3];
+    for (int c = 0; c < 3; ++c) {
+      nf[c] = int64_t(counts[size_t(c)]);
+      const double e2 = fromExact(counts[size_t(3 + H + 1 + c * 3)]);
+      chanEnergy[c] = fromExact(counts[size_t(3 + H + 1 + c * 3 + 1)]);
+      err2 += e2;
+      energy += chanEnergy[c];
+    }
+    const int64_t iters = int64_t(counts[size_t(3 + H + 1 + 2)]);
+    const int64_t solves = int64_t(counts[size_t(3 + H + 1 + 5)]);
+
     CompressedBtf out;
     out.info = m_info;
     out.codec = "nmf";
     out.colour = m_s.colour;
-    const int64_t T = m_info.texels();
     const ArrayType type = m_s.half ? ArrayType::F16 : ArrayType::F32;
     const double raw = double(T) * m_n * m_n * 12.0;
     nlohmann::ordered_json params = nlohmann::ordered_json::parse(settingsJson(m_s));
     nlohmann::ordered_json chans = nlohmann::ordered_json::array();
-    // Slots and factor counts per channel.
-    int K[3] = {0, 0, 0};
-    int64_t nf[3] = {0, 0, 0};
-    std::vector<int64_t> rankHist(size_t(m_s.maxRank) + 1, 0);
-    for (int64_t t = 0; t < T; ++t)
-      for (int c = 0; c < 3; ++c) {
-        const int r = m_f[size_t(t) * 3 + size_t(c)].rank();
-        K[c] = std::max(K[c], r);
-        nf[c] += r;
-        if (c == 0) rankHist[size_t(r)]++;
-      }
     // Components: explicit, from the ratio's size model, or from the error target.
     const int maxC = std::min(m_n, 256);
-    // Totals in texel order: the same bits however the texels were streamed or distributed.
-    for (int64_t t = 0; t < T; ++t)
-      for (int c = 0; c < 3; ++c) {
-        const size_t i = size_t(t) * 3 + size_t(c);
-        m_err2 += m_texelErr2[i];
-        m_energy += m_texelEnergy[i];
-        m_chanEnergy[c] += m_texelEnergy[i];
-      }
-    const double nmfRel2 = m_energy > 0 ? m_err2 / m_energy : 0;
+    const double nmfRel2 = energy > 0 ? err2 / energy : 0;
     const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
     // Error left to the PCA stage, split between the view and light sides.
     const double pcaBudget2 = std::max(target * target - nmfRel2, 0.25 * target * target) / 2;
-    // PCA bases of every channel and side first, then the component counts.
+    // PCA bases of every channel and side first (samples: s_j · unit factor — the
+    // reconstruction error a side's projection error causes scales with s_j), then the counts.
+    // Lower triangles of the six Gram matrices (channel, side), packed: entry (a, b ≤ a) of
+    // matrix g at g · tri + a(a + 1)/2 + b.
+    const size_t tri = size_t(m_n) * size_t(m_n + 1) / 2;
+    std::vector<Exact> gram(6 * tri, 0);
+    {
+      const int64_t cell = 32, chunk = std::max(1, m_info.chunkTexels);
+      std::vector<std::pair<int64_t, int64_t>> blocks;
+      for (int64_t t0 = 0; t0 < T;) {
+        const int64_t t1 = std::min({T, (t0 / cell + 1) * cell, (t0 / chunk + 1) * chunk});
+        int64_t here = 0;
+        for (int64_t t = t0; t < t1; ++t) here += m_done[size_t(t)];
+        if (here == t1 - t0) blocks.push_back({t0, t1});
+        if (here != 0 && here != t1 - t0)
+          throw Error("nmf encoder: texels " + std::to_string(t0) + ".." + std::to_string(t1 - 1) +
+                      " were split between ranks (a rank must hold whole chunks)");
+        t0 = t1;
+      }
+      std::mutex mutex;
+      parallelForChunks(int64_t(blocks.size()) * 6, 1, [&](int64_t b0, int64_t b1) {
+        std::vector<Exact> acc(tri, 0);
+        int last = -1;
+        auto flush = [&] {
+          if (last < 0) return;
+          std::lock_guard<std::mutex> lock(mutex);
+          Exact* g = gram.data() + size_t(last) * tri;
+          for (size_t i = 0; i < tri; ++i) g[i] += acc[i];
+          std::fill(acc.begin(), acc.end(), Exact(0));
+        };
+        for (int64_t bi = b0; bi < b1; ++bi) {
+          const auto [t0, t1] = blocks[size_t(bi / 6)];
+          const int c = int(bi % 6) / 2, side = int(bi % 6) % 2;
+          if (c * 2 + side != last) flush(), last = c * 2 + side;
+          int64_t cols = 0;
+          for (int64_t t = t0; t < t1; ++t) cols += m_f[size_t(t) * 3 + size_t(c)].rank();
+          if (cols == 0) continue;
+          Eigen::MatrixXd X(m_n, cols);
+          int64_t col = 0;
+          for (int64_t t = t0; t < t1; ++t) {
+            const TexelFactors& f = m_f[size_t(t) * 3 + size_t(c)];
+            for (int j = 0; j < f.rank(); ++j, ++col) {
+              const float* src = (side == 0 ? f.view.data() : f.light.data()) + size_t(j) * m_n;
+              for (int i = 0; i < m_n; ++i) X(i, col) = double(f.scale[size_t(j)] * src[i]);
+            }
+          }
+          const Eigen::MatrixXd G = X * X.transpose();
+          for (int a = 0; a < m_n; ++a)
+            for (int b = 0; b <= a; ++b)
+              acc[size_t(a) * (a + 1) / 2 + size_t(b)] += toExact(G(a, b));
+        }
+        flush();
+      });
+    }
+    comm.sumExact(gram);
     la::Basis bases[3][2];
     for (int c = 0; c < 3; ++c) {
       if (K[c] == 0) continue;
       for (int side = 0; side < 2; ++side) {
-        // Samples: s_j · unit factor (the reconstruction error a side's projection error causes
-        // scales with s_j).
-        la::MatF X(m_n, nf[c]);
-        int64_t col = 0;
-        for (int64_t t = 0; t < T; ++t) {
-          const TexelFactors& f = m_f[size_t(t) * 3 + size_t(c)];
-          for (int j = 0; j < f.rank(); ++j, ++col) {
-            const float* src = (side == 0 ? f.view.data() : f.light.data()) + size_t(j) * m_n;
-            for (int i = 0; i < m_n; ++i) X(i, col) = f.scale[size_t(j)] * src[i];
-          }
-        }
-        bases[c][side] = la::pcaBasis(X, maxC);
+        Eigen::MatrixXd G(m_n, m_n);
+        const Exact* g = gram.data() + size_t(c * 2 + side) * tri;
+        for (int a = 0; a < m_n; ++a)
+          for (int b = 0; b <= a; ++b)
+            G(a, b) = G(b, a) = fromExact(g[size_t(a) * (a + 1) / 2 + size_t(b)]);
+        bases[c][side] = la::pcaBasisFromGram(G, maxC);
       }
     }
     int Cs[3][2] = {{0, 0}, {0, 0}, {0, 0}};
@@ -206,12 +291,12 @@ class NmfEncoder final : public Encoder {
         for (int side = 0; side < 2; ++side) {
           if (avail(c, side) == 0) continue;
           // Residual as a fraction of the data energy (Σ s_j² ≈ ‖A‖²).
-          const double frac =
-              m_energy > 0 ? pcaBudget2 * m_channelEnergy(c) / bases[c][side].total : 0;
+          const double frac = energy > 0 ? pcaBudget2 * chanEnergy[c] / bases[c][side].total : 0;
           Cs[c][side] = std::min(avail(c, side),
                                  std::max(1, la::componentsForResidual(bases[c][side], frac)));
         }
     }
+    CArray* coef[3][2] = {{nullptr, nullptr}, {nullptr, nullptr}, {nullptr, nullptr}};
     for (int c = 0; c < 3; ++c) {
       nlohmann::ordered_json cj;
       cj["channel"] = c;
@@ -230,10 +315,13 @@ class NmfEncoder final : public Encoder {
       }
       CArray& cv = out.add(channelArray(c, "coef_view"), type, T, int64_t(K[c]) * Cv);
       CArray& cl = out.add(channelArray(c, "coef_light"), type, T, int64_t(K[c]) * Cl);
+      coef[c][0] = &cv;
+      coef[c][1] = &cl;
       // Quantize the bases first so the coefficients are fitted to what is stored.
       const la::MatF Bv = quantizedBasis(bv, Cv), Bl = quantizedBasis(bl, Cl);
       parallelForChunks(T, 256, [&](int64_t b, int64_t e) {
         for (int64_t t = b; t < e; ++t) {
+          if (!m_done[size_t(t)]) continue;
           const TexelFactors& f = m_f[size_t(t) * 3 + size_t(c)];
           for (int j = 0; j < f.rank(); ++j) {
             Eigen::Map<const la::VecF> w(f.view.data() + size_t(j) * m_n, m_n);
@@ -246,23 +334,53 @@ class NmfEncoder final : public Encoder {
         }
       });
     }
+    if (comm.distributed()) {
+      // Rank 0 gathers the coefficient rows of every other rank's texels (f16 when stored so).
+      out.quantize();
+      StateWriter w;
+      for (int64_t t = 0; t < T; ++t) {
+        if (!m_done[size_t(t)]) continue;
+        w.put<int64_t>(t);
+        for (auto& cc : coef)
+          for (CArray* a : cc)
+            for (int64_t k = 0; k < a->cols; ++k) {
+              const float v = a->data[size_t(t * a->cols + k)];
+              if (m_s.half)
+                w.put<uint16_t>(la::floatToHalf(v));
+              else
+                w.put<float>(v);
+            }
+      }
+      const std::vector<std::string> rows = comm.gather(w.take(), 0);
+      if (!comm.root()) return CompressedBtf{};
+      for (int q = 1; q < comm.size(); ++q) {
+        StateReader r(rows[size_t(q)]);
+        while (!r.done()) {
+          const int64_t t = r.get<int64_t>();
+          if (t < 0 || t >= T) throw Error("nmf encoder: a rank sent a texel out of range");
+          for (auto& cc : coef)
+            for (CArray* a : cc)
+              for (int64_t k = 0; k < a->cols; ++k)
+                a->data[size_t(t * a->cols + k)] =
+                    m_s.half ? la::halfToFloat(r.get<uint16_t>()) : r.get<float>();
+        }
+      }
+    }
     out.quantize();
     params["channels"] = chans;
     nlohmann::ordered_json hist = nlohmann::ordered_json::array();
-    for (auto h : rankHist) hist.push_back(h);
+    for (int r = 0; r < H; ++r) hist.push_back(int64_t(counts[size_t(3 + r)]));
     params["rank_histogram_channel0"] = hist;
     out.paramsJson = params.dump();
     nlohmann::ordered_json st;
     // No timings in the file: the same request writes the same bytes (timings are in reports).
     st["nmf_relative_rmse"] = std::sqrt(nmfRel2);
-    st["mean_nmf_iterations"] = m_solves ? double(m_iters) / double(m_solves) : 0.0;
+    st["mean_nmf_iterations"] = solves ? double(iters) / double(solves) : 0.0;
     out.statsJson = st.dump();
     return out;
   }
 
  private:
-  double m_channelEnergy(int c) const { return m_chanEnergy[c]; }
-
   static la::MatF quantizedBasis(const CArray& a, int C) {
     la::MatF B(a.rows, C);
     for (int64_t i = 0; i < a.rows; ++i)
@@ -318,8 +436,7 @@ class NmfEncoder final : public Encoder {
   std::vector<TexelFactors> m_f;
   std::vector<uint8_t> m_done;
   std::mutex m_mutex;
-  double m_err2 = 0, m_energy = 0, m_seconds = 0;
-  double m_chanEnergy[3] = {0, 0, 0};
+  double m_seconds = 0;
   std::vector<double> m_texelErr2, m_texelEnergy;  // per (texel, channel)
   int64_t m_iters = 0, m_solves = 0;
 };

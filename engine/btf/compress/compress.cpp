@@ -23,12 +23,12 @@ double since(Clock::time_point t) {
 }
 }  // namespace
 
-bool gatherEncoder(Comm& comm, Encoder& enc) {
-  if (!comm.distributed()) return true;
-  const std::vector<std::string> states = comm.gather(enc.addedState(), 0);
-  if (!comm.root()) return false;
-  for (int q = 1; q < comm.size(); ++q) enc.mergeAdded(states[size_t(q)]);
-  return true;
+CompressedBtf Encoder::finishOn(Comm& comm) {
+  if (!comm.distributed()) return finish();
+  const std::vector<std::string> states = comm.gather(addedState(), 0);
+  if (!comm.root()) return CompressedBtf{};
+  for (int q = 1; q < comm.size(); ++q) mergeAdded(states[size_t(q)]);
+  return finish();
 }
 
 CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, bool progress,
@@ -41,68 +41,66 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
   CompressReport r;
   // In a cluster job every rank reaches each agreement, even when its own share failed.
   collectively(comm, [&] {
-  reader = std::make_unique<BtfReader>(inPath);
-  const BtfReader& in = *reader;
-  const BtfInfo& info = in.info();
-  enc = makeEncoder(s, info, cancel);
-  r.texels = info.texels();
-  const auto train = enc->trainingTexels();
-  const size_t stride = size_t(info.nDirs()) * info.nDirs() * 3;
-  if (s.memoryBudget > 0) {
-    const double encoder = double(enc->memoryBytes());
-    const double training = double(train.size()) * double(info.texelBytes());
-    const double chunk = double(info.chunkTexels) * double(info.texelBytes());
-    if (encoder + training + chunk > double(s.memoryBudget))
-      throw Error("refusing to start: compressing " + inPath + " with " + s.codec +
-                  " needs about " + formatBytes(encoder + training + chunk) + " (encoder " +
-                  formatBytes(encoder) + ", training texels " + formatBytes(training) +
-                  ", one chunk " + formatBytes(chunk) + ") but the memory budget is " +
-                  formatBytes(double(s.memoryBudget)) +
-                  "; lower --train-texels or --max-rank, or raise --memory-budget");
-  }
-  if (!train.empty()) {
-    const auto t0 = Clock::now();
-    std::vector<float> values(train.size() * stride);
-    ProgressReporter pr("training read", int64_t(train.size()), progress);
-    for (size_t i = 0; i < train.size(); ++i) {
-      in.readTexelInto(train[i], values.data() + i * stride);
-      pr.add(1);
+    reader = std::make_unique<BtfReader>(inPath);
+    const BtfReader& in = *reader;
+    const BtfInfo& info = in.info();
+    enc = makeEncoder(s, info, cancel);
+    r.texels = info.texels();
+    const auto train = enc->trainingTexels();
+    const size_t stride = size_t(info.nDirs()) * info.nDirs() * 3;
+    if (s.memoryBudget > 0) {
+      const double encoder = double(enc->memoryBytes());
+      const double training = double(train.size()) * double(info.texelBytes());
+      const double chunk = double(info.chunkTexels) * double(info.texelBytes());
+      if (encoder + training + chunk > double(s.memoryBudget))
+        throw Error("refusing to start: compressing " + inPath + " with " + s.codec +
+                    " needs about " + formatBytes(encoder + training + chunk) + " (encoder " +
+                    formatBytes(encoder) + ", training texels " + formatBytes(training) +
+                    ", one chunk " + formatBytes(chunk) + ") but the memory budget is " +
+                    formatBytes(double(s.memoryBudget)) +
+                    "; lower --train-texels or --max-rank, or raise --memory-budget");
     }
-    pr.finish();
-    enc->train(values.data());
-    r.trainSeconds = since(t0);
-  }
-  {
-    const auto t0 = Clock::now();
-    // A cluster job: chunk c is rank c mod N's.
-    int64_t mine = 0;
-    for (int c = comm.rank(); c < info.chunks(); c += comm.size())
-      mine += info.chunkEnd(c) - info.chunkBegin(c);
-    ProgressReporter pr("encode " + s.codec, mine, progress);
-    for (int c = comm.rank(); c < info.chunks(); c += comm.size()) {
+    if (!train.empty()) {
+      const auto t0 = Clock::now();
+      std::vector<float> values(train.size() * stride);
+      ProgressReporter pr("training read", int64_t(train.size()), progress);
+      for (size_t i = 0; i < train.size(); ++i) {
+        in.readTexelInto(train[i], values.data() + i * stride);
+        pr.add(1);
+      }
+      pr.finish();
+      enc->train(values.data());
+      r.trainSeconds = since(t0);
+    }
+    {
+      const auto t0 = Clock::now();
+      // A cluster job: chunk c is rank c mod N's.
+      int64_t mine = 0;
+      for (int c = comm.rank(); c < info.chunks(); c += comm.size())
+        mine += info.chunkEnd(c) - info.chunkBegin(c);
+      ProgressReporter pr("encode " + s.codec, mine, progress);
+      for (int c = comm.rank(); c < info.chunks(); c += comm.size()) {
+        if (cancel && cancel->cancelled()) throw Cancelled("compression");
+        const std::vector<float> chunk = in.readChunk(c);
+        enc->add(info.chunkBegin(c), info.chunkEnd(c), chunk.data());
+        pr.add(info.chunkEnd(c) - info.chunkBegin(c));
+      }
+      r.texelsEncoded = mine;
       if (cancel && cancel->cancelled()) throw Cancelled("compression");
-      const std::vector<float> chunk = in.readChunk(c);
-      enc->add(info.chunkBegin(c), info.chunkEnd(c), chunk.data());
-      pr.add(info.chunkEnd(c) - info.chunkBegin(c));
+      pr.finish();
+      r.encodeSeconds = since(t0);
     }
-    r.texelsEncoded = mine;
-    if (cancel && cancel->cancelled()) throw Cancelled("compression");
-    pr.finish();
-    r.encodeSeconds = since(t0);
-  }
   });
   const auto f0 = Clock::now();
   CompressedBtf out;
   r.ranks = comm.size();
-  bool root = false;
-  collectively(comm, [&] { root = gatherEncoder(comm, *enc); });
+  collectively(comm, [&] { out = enc->finishOn(comm); });
   r.commBytes = comm.bytesSent() + comm.bytesReceived() - comm0;
-  if (!root) {
+  if (!comm.root()) {
     r.seconds = since(start);
     if (report) *report = r;
     return out;
   }
-  out = enc->finish();
   r.finishSeconds = since(f0);
   r.seconds = since(start);
   r.peakRssBytes = peakRssBytes();

@@ -23,15 +23,12 @@ struct CompressReport {
 
 /// Encodes every texel of a raw store (training texels first). Progress on stderr when asked.
 /// With a distributed `comm` (docs/cluster.md) every rank reads and trains on the training
-/// texels, encodes its turn of the chunks, and rank 0 merges the ranks' states in rank order and
-/// finishes: the same bytes as one process. Ranks other than 0 return an empty CompressedBtf.
+/// texels, encodes its share of the chunks (contiguous), and the encoder finishes over the ranks
+/// (Encoder::finishOn): the same bytes as one process. Ranks other than 0 return an empty
+/// CompressedBtf.
 CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, bool progress,
                             const CancelToken* cancel, CompressReport* report,
                             Comm* comm = nullptr);
-
-/// Rank 0 of a cluster job merges every rank's encoder state (addedState) in rank order and
-/// returns true; other ranks send theirs and return false.
-bool gatherEncoder(Comm& comm, Encoder& enc);
 
 struct ErrorReport {
   int nu = 0, nv = 0, nDirs = 0;

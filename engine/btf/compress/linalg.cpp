@@ -260,6 +260,26 @@ Basis pcaBasis(const MatF& X, int c) {
   return b;
 }
 
+Basis pcaBasisFromGram(const Eigen::MatrixXd& G, int c) {
+  Basis b;
+  const int dim = int(G.rows());
+  b.total = G.trace();
+  if (dim == 0 || !(b.total > 0)) {
+    b.B = MatF::Zero(dim, 0);
+    b.eigen = VecD::Zero(0);
+    return b;
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(G);
+  const VecD ev = es.eigenvalues().reverse().cwiseMax(0.0);
+  const Eigen::MatrixXd vecs = es.eigenvectors().rowwise().reverse();
+  b.eigen = ev;
+  int keep = 0;
+  const double floor = 1e-12 * ev[0];  // as pcaBasis: rounding noise of float data below it
+  while (keep < std::min<int>(c, int(ev.size())) && ev[keep] > floor && ev[keep] > 0) ++keep;
+  b.B = vecs.leftCols(keep).cast<float>();
+  return b;
+}
+
 int componentsForResidual(const Basis& b, double residual) {
   if (!(b.total > 0)) return 0;
   double acc = 0;

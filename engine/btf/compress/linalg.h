@@ -64,6 +64,8 @@ struct Basis {
   double total = 0;  // ‖X‖²_F
 };
 Basis pcaBasis(const MatF& X, int c);
+/// The same from the samples' Gram matrix G = X Xᵀ (dim × dim, symmetric): total = trace(G).
+Basis pcaBasisFromGram(const Eigen::MatrixXd& G, int c);
 /// Smallest c whose retained energy leaves at most `residual` (fraction of total) unexplained.
 int componentsForResidual(const Basis& b, double residual);
 

@@ -16,6 +16,7 @@ class LocalComm final : public Comm {
   std::vector<std::string> allgather(const std::string& mine) override { return {mine}; }
   void broadcast(std::string&, int) override {}
   std::vector<std::string> gather(const std::string& mine, int) override { return {mine}; }
+  void sumExact(std::vector<Exact>&) override {}
 };
 }  // namespace
 
@@ -42,7 +43,8 @@ void collectively(Comm& comm, const std::function<void()>& fn) {
   if (first < 0) return;
   const std::string msg = all[size_t(first)].substr(1);
   if (failed == comm.size()) throw CollectiveError(msg);  // every rank: the same request error
-  throw CollectiveError("rank " + std::to_string(first) + " of " + std::to_string(comm.size()) + ": " + msg);
+  throw CollectiveError("rank " + std::to_string(first) + " of " + std::to_string(comm.size()) +
+                        ": " + msg);
 }
 
 void requireSame(Comm& comm, const std::string& what, const std::string& value) {

@@ -8,6 +8,7 @@
 // bytes on any number of ranks.
 #pragma once
 #include <btf/core/error.h>
+#include <btf/core/exact_sum.h>
 
 #include <cstdint>
 #include <functional>
@@ -30,6 +31,9 @@ class Comm {
   virtual void broadcast(std::string& bytes, int root) = 0;
   /// Every rank's bytes on `root` in rank order (an empty vector elsewhere).
   virtual std::vector<std::string> gather(const std::string& mine, int root) = 0;
+  /// Element-wise sums of every rank's `v` (exact integers: any order gives the same sums), on
+  /// every rank.
+  virtual void sumExact(std::vector<Exact>& v) = 0;
 
   /// Payload bytes this rank sent and received through the collectives so far.
   uint64_t bytesSent() const { return m_sent; }

@@ -57,13 +57,12 @@ void compress(const Call& c) {
   cs.memoryBudget = parseBytes(r.s("memory_budget"));
   CompressReport rep;
   Comm& comm = c.ctx.processes();
-  const CompressedBtf b =
-      compressStore(r.s("input"), cs, c.progress(), c.ctx.cancel, &rep, &comm);
+  const CompressedBtf b = compressStore(r.s("input"), cs, c.progress(), c.ctx.cancel, &rep, &comm);
   json& j = c.rep.json;
   if (comm.distributed()) {
     BtfReader in(r.s("input"));
-    j["cluster"] = clusterJson(comm, rep.texelsEncoded, double(in.info().texelBytes()),
-                               rep.commBytes);
+    j["cluster"] =
+        clusterJson(comm, rep.texelsEncoded, double(in.info().texelBytes()), rep.commBytes);
     if (!comm.root()) return;  // rank 0 writes and reports
   }
   c.ctx.check("encoder");
@@ -105,9 +104,8 @@ void compare(const Call& c) {
     B = openBtf(r.s("b"));
   });
   ErrorReport e;
-  collectively(comm, [&] {
-    e = compareBtfs(*A, *B, c.progress(), r.i("worst"), c.ctx.cancel, &comm);
-  });
+  collectively(comm,
+               [&] { e = compareBtfs(*A, *B, c.progress(), r.i("worst"), c.ctx.cancel, &comm); });
   if (!r.s("maps").empty() && comm.root()) writeErrorMaps(e, r.s("maps"));
   auto ratioOf = [](const std::string& p) {
     return isCompressedFile(p) ? readCompressed(p).ratio() : 1.0;

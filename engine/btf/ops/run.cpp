@@ -10,8 +10,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <set>
 #include <memory>
+#include <set>
 #include <sstream>
 
 namespace btf::ops {
@@ -198,14 +198,14 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
       r.command() == "study" || (r.command() == "export" && r.s("format") == "ubo2003");
   std::unique_ptr<OutputLock> lock;
   collectively(ctx.processes(), [&] {
-  r.validate();
-  if (!out.empty()) {
-    checkOutputPath(out, folderOut);
-    // In a cluster job rank 0 holds the lock and makes the folder for the job's ranks.
-    if (!folderOut && ctx.processes().root()) lock = std::make_unique<OutputLock>(out);
-    // A folder output is made now, so a folder that cannot be written is refused before work.
-    if (folderOut && ctx.processes().root()) makeFolder(out);
-  }
+    r.validate();
+    if (!out.empty()) {
+      checkOutputPath(out, folderOut);
+      // In a cluster job rank 0 holds the lock and makes the folder for the job's ranks.
+      if (!folderOut && ctx.processes().root()) lock = std::make_unique<OutputLock>(out);
+      // A folder output is made now, so a folder that cannot be written is refused before work.
+      if (folderOut && ctx.processes().root()) makeFolder(out);
+    }
   });
   // A failed run leaves no output it began (an export's folder); a simulation keeps its
   // .partial for --resume.

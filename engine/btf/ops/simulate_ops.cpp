@@ -77,8 +77,7 @@ std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss)
 
 json clusterJson(Comm& comm, int64_t texels, double texelBytes, uint64_t commBytes) {
   // Per rank: texels, bytes of aBRDF it computed or encoded, bytes it sent and received.
-  const std::vector<double> mine = {double(texels), double(texels) * texelBytes,
-                                    double(commBytes)};
+  const std::vector<double> mine = {double(texels), double(texels) * texelBytes, double(commBytes)};
   json ranks = json::array();
   double worst = 0, maxBytes = 0;
   for (const std::string& s : comm.allgather(packDoubles(mine))) {
@@ -143,10 +142,12 @@ void simulate(const Call& c) {
                     comm.describe().c_str(), est.chunks, comm.size(), est.threads));
   collectively(comm, [&] {
     if (!est.refusal.empty())
-      throw Error("refusing to start: " +
-                  (comm.distributed() ? format("rank %d of %d (the budget is per rank): ", comm.rank(), comm.size())
-                                      : std::string()) +
-                  est.refusal);
+      throw Error(
+          "refusing to start: " +
+          (comm.distributed()
+               ? format("rank %d of %d (the budget is per rank): ", comm.rank(), comm.size())
+               : std::string()) +
+          est.refusal);
   });
   json& j = c.rep.json;
   j["output"] = output;
@@ -191,16 +192,16 @@ void simulate(const Call& c) {
     const auto start = Clock::now();
     const uint64_t comm0 = comm.bytesSent() + comm.bytesReceived();
     const SimReport sr = job.run("", est, c.ctx.cancel);
-    // A cluster job: each rank encoded the chunks it simulated; rank 0 merges and finishes.
-    bool root = true;
-    collectively(comm, [&] { root = gatherEncoder(comm, *enc); });
+    // A cluster job: each rank encoded the chunks it simulated; the encoder finishes over the
+    // ranks and rank 0 writes.
+    const auto f0 = Clock::now();
+    CompressedBtf b;
+    collectively(comm, [&] { b = enc->finishOn(comm); });
+    const double finishSeconds = since(f0);
     const uint64_t commBytes = comm.bytesSent() + comm.bytesReceived() - comm0;
     if (comm.distributed())
       j["cluster"] = clusterJson(comm, sr.texelsComputed, double(info.texelBytes()), commBytes);
-    if (!root) return;
-    const auto f0 = Clock::now();
-    const CompressedBtf b = enc->finish();
-    const double finishSeconds = since(f0);
+    if (!comm.root()) return;
     c.ctx.check("encoder");
     writeCompressed(output, b);
     const double wall = since(start);
@@ -233,9 +234,8 @@ void simulate(const Call& c) {
   const SimReport sr = job.run(output, est, c.ctx.cancel);
   if (!sr.resumeNote.empty()) c.warn(sr.resumeNote);
   if (comm.distributed())
-    j["cluster"] =
-        clusterJson(comm, sr.texelsComputed, double(job.storeInfo(est.chunkTexels).texelBytes()),
-                    sr.commBytes);
+    j["cluster"] = clusterJson(comm, sr.texelsComputed,
+                               double(job.storeInfo(est.chunkTexels).texelBytes()), sr.commBytes);
   const double evalRate = sr.evalSeconds > 0 ? double(sr.abrdfValues) / sr.evalSeconds : 0;
   const double rayRate = sr.hitMapSeconds > 0 ? double(sr.hitMapRays) / sr.hitMapSeconds : 0;
   j["network_points"] = sr.networkPoints;

@@ -182,9 +182,10 @@ void study(const Call& c) {
   o.comm = &comm;
   if (comm.root()) makeFolder(dir);
   if (comm.distributed())
-    c.notice(format("cluster job: %s; configuration i runs on rank i mod %d, each with %d "
-                    "thread(s): the times are theirs",
-                    comm.describe().c_str(), comm.size(), currentThreads()));
+    c.notice(
+        format("cluster job: %s; configuration i runs on rank i mod %d, each with %d "
+               "thread(s): the times are theirs",
+               comm.describe().c_str(), comm.size(), currentThreads()));
   Study st;
   collectively(comm, [&] { st = runStudy(scene, o); });
   // Rank 0 writes the tables (and runs the compression study, alone).

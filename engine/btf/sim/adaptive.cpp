@@ -95,8 +95,8 @@ struct Scratch {
   std::vector<Rgb> cellRgb, nextRgb;
   std::vector<uint8_t> cellReal, nextReal, split, made, kept, hot;
   std::vector<int> samplesUsed, finalLevel, keep;
-  std::vector<float> err;             // per light: error estimate of its last level
-  std::vector<uint8_t> flagged;       // per light: a shadow edge lies in its footprint
+  std::vector<float> err;        // per light: error estimate of its last level
+  std::vector<uint8_t> flagged;  // per light: a shadow edge lies in its footprint
   std::vector<int> active, next;
 };
 
@@ -173,10 +173,9 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     l0.resize(4);
     for (int q = 0; q < 4; ++q) {
       const int qa = q & 1, qb = q >> 1;
-      const uint64_t c =
-          hashKeys(g.seed, uint64_t(i) * 2 + uint64_t(qa), uint64_t(j) * 2 + uint64_t(qb),
-                   0x1e7e10) &
-          3;
+      const uint64_t c = hashKeys(g.seed, uint64_t(i) * 2 + uint64_t(qa),
+                                  uint64_t(j) * 2 + uint64_t(qb), 0x1e7e10) &
+                         3;
       const size_t k = size_t(2 * qb + int(c >> 1)) * 4 + size_t(2 * qa + int(c & 1));
       l0[size_t(q)] = map[k];
       l0[size_t(q)].inPrev = false;
@@ -245,9 +244,9 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   for (int l = 0; l < nL && m_shadowEdges && okCount; ++l) {
     const float sx = m_slopeX[size_t(l)] * m_toSampleX, sy = m_slopeY[size_t(l)] * m_toSampleY;
     for (int q = 0; q < 4 && !sc.flagged[size_t(l)]; ++q)
-      sc.flagged[size_t(l)] = qok[q] && edgesIn(l, 0.5f * float(q & 1), 0.5f * float((q & 1) + 1),
-                                                0.5f * float(q >> 1), 0.5f * float((q >> 1) + 1),
-                                                sx, sy, qlo[q], qhi[q]);
+      sc.flagged[size_t(l)] =
+          qok[q] && edgesIn(l, 0.5f * float(q & 1), 0.5f * float((q & 1) + 1), 0.5f * float(q >> 1),
+                            0.5f * float((q >> 1) + 1), sx, sy, qlo[q], qhi[q]);
   }
 
   // A sample's contribution for light l (flagged lights: exact shadow rays).
@@ -308,8 +307,10 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       for (int r = 0; r < K; ++r)
         for (int c = 0; c < K; ++c) {
           const int k = r * K + c;
-          if (c + 1 < K && (real[k] || real[k + 1])) d2 += double(y[k] - y[k + 1]) * (y[k] - y[k + 1]);
-          if (r + 1 < K && (real[k] || real[k + K])) d2 += double(y[k] - y[k + K]) * (y[k] - y[k + K]);
+          if (c + 1 < K && (real[k] || real[k + 1]))
+            d2 += double(y[k] - y[k + 1]) * (y[k] - y[k + 1]);
+          if (r + 1 < K && (real[k] || real[k + K]))
+            d2 += double(y[k] - y[k + K]) * (y[k] - y[k + K]);
         }
       const float e = float(0.5 * std::sqrt(d2) / double(n));
       sc.err[size_t(l)] = e;
@@ -397,8 +398,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
                                       uint64_t(j) * K2 + uint64_t(cj), uint64_t(L + 1));
           cs.lx = (float(ci) + uniformFloat(h)) / float(K2);
           cs.ly = (float(cj) + uniformFloat(mix64(h))) / float(K2);
-          cs.pos =
-              DVec3((i + double(cs.lx)) * g.Lx / g.nu, (j + double(cs.ly)) * g.Ly / g.nv, 0.0);
+          cs.pos = DVec3((i + double(cs.lx)) * g.Lx / g.nu, (j + double(cs.ly)) * g.Ly / g.nv, 0.0);
           float depth;
           const RayHit hit = traceSampleRay(m_tracer, cs.pos, wv, &depth);
           ++rays;

@@ -60,9 +60,9 @@ class AdaptiveTexelSampler {
   /// `maps` must have been built with spp 2 or 4 (the map's level); `gather` (may be null) adds
   /// the network's indirect light over the map's samples at edges, level 0 elsewhere.
   AdaptiveTexelSampler(const PeriodicTracer& tracer, const std::vector<Material>& materials,
-                       const DirectionSet& dirs, const HitMaps& maps, const DirectIllumination& direct,
-                       const NetworkGather* gather, AdaptiveSettings settings,
-                       AdaptiveStats* stats);
+                       const DirectionSet& dirs, const HitMaps& maps,
+                       const DirectIllumination& direct, const NetworkGather* gather,
+                       AdaptiveSettings settings, AdaptiveStats* stats);
   /// aBRDF of texel (i, j) seen from `view` for every light: out[l * 3 + c]. Returns the number
   /// of (sample, light) evaluations.
   int64_t eval(int i, int j, int view, float* out) const;

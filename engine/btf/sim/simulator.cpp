@@ -9,9 +9,9 @@
 #include <unistd.h>
 
 #include <atomic>
-#include <csignal>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <future>
@@ -358,8 +358,8 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     checkCancel();
     DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
                               {m, m_opt.shadowBias, grazingRays});
-    TexelKernel k{*m_tracer, m_materials, m_dirs, maps, direct, gather, pathTrace, nullptr, {}, 1,
-                  {}};
+    TexelKernel k{*m_tracer, m_materials, m_dirs, maps, direct, gather,
+                  pathTrace, nullptr,     {},     1,    {}};
     std::unique_ptr<AdaptiveTexelSampler> ad;
     AdaptiveStats st;
     if (m_adaptive) {
@@ -378,8 +378,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
       // refinement beyond the 4 samples of level 0 falls with the texel size; measured on brick
       // (8×8 → 32², 64²) it goes as its square root: mean samples 4 + (s − 4)·√(cal / N).
       const double s = std::max(4.0, st.meanSamples());
-      const double r =
-          std::sqrt(std::min(1.0, double(cal) / double(std::max(m_opt.nu, m_opt.nv))));
+      const double r = std::sqrt(std::min(1.0, double(cal) / double(std::max(m_opt.nu, m_opt.nv))));
       perCall *= (4.0 + (s - 4.0) * r) / s;
     }
     return perCall;
@@ -389,8 +388,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   if (EffectDecision* gr = plm.find("grazing_rays"); gr && gr->value != "none") {
     // What exact rays for the grazing lights cost over the map alone.
     const double mapOnly = timeKernel(mode, nullptr, false, 90);
-    const double cost =
-        units * double(nD) * std::max(0.0, perSampleView - mapOnly) / threads;
+    const double cost = units * double(nD) * std::max(0.0, perSampleView - mapOnly) / threads;
     gr->secondsSaved = -cost;  // a cost: printed as such, kept out of the store's header
   }
   e.evalSeconds = units * double(nD) * perSampleView / threads;
@@ -549,8 +547,8 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
     throwIfCancelled(cancel, "network light");
   }
-  TexelKernel kernel{*m_tracer, m_materials, m_dirs, maps, direct, gather.get(), pt, nullptr,
-                     {},         1,           {}};
+  TexelKernel kernel{*m_tracer, m_materials, m_dirs, maps, direct, gather.get(),
+                     pt,        nullptr,     {},     1,    {}};
   AdaptiveStats adStats;
   std::unique_ptr<AdaptiveTexelSampler> adaptive;
   if (m_adaptive) {
@@ -635,49 +633,49 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   // On one rank, a failure ends the run here; in a cluster job every rank first reaches the
   // agreement below (so none waits forever), then all fail with the failing rank's message.
   collectively(comm, [&] {
-  for (int c = 0; c < info.chunks(); ++c) {
-    const int64_t t0 = info.chunkBegin(c), t1 = info.chunkEnd(c);
-    if (!mine[size_t(c)]) continue;
-    if (writer && writer->chunkDone(c)) {
-      pr.add(t1 - t0);
-      continue;
+    for (int c = 0; c < info.chunks(); ++c) {
+      const int64_t t0 = info.chunkBegin(c), t1 = info.chunkEnd(c);
+      if (!mine[size_t(c)]) continue;
+      if (writer && writer->chunkDone(c)) {
+        pr.add(t1 - t0);
+        continue;
+      }
+      ++r.chunksComputed;
+      r.texelsComputed += t1 - t0;
+      const size_t stride = size_t(nD) * size_t(nD) * 3;
+      std::vector<float>& chunk = buffers[cur];
+      chunk.assign(size_t(t1 - t0) * stride, 0.f);
+      parallelForChunks((t1 - t0) * nD, pt ? 1 : 8,
+                        [&](int64_t b, int64_t e) {
+                          uint64_t local = 0;
+                          for (int64_t k = b; k < e; ++k) {
+                            const int64_t t = t0 + k / nD;
+                            const int view = int(k % nD);
+                            local += uint64_t(kernel.eval(
+                                int(t % m_opt.nu), int(t / m_opt.nu), view,
+                                &chunk[size_t(k / nD) * stride + size_t(view) * nD * 3]));
+                            if (view == nD - 1) pr.add(1);
+                          }
+                          evals += local;
+                        },
+                        cancel);
+      if (cancel && cancel->cancelled()) {
+        waitWrite();  // the chunk in flight lands in the .partial; then the one outcome
+        throw Cancelled("aBRDF");
+      }
+      r.abrdfValues += uint64_t(t1 - t0) * uint64_t(nD) * uint64_t(nD);
+      if (m_sink) m_sink(c, t0, t1, chunk.data());
+      if (writer) {
+        waitWrite();  // at most one write in flight: the other buffer is free again
+        pending = std::async(std::launch::async, [&writer, c, data = chunk.data()] {
+          const auto w0 = Clock::now();
+          writer->writeChunk(c, data);
+          return since(w0);
+        });
+        cur ^= 1;
+      }
     }
-    ++r.chunksComputed;
-    r.texelsComputed += t1 - t0;
-    const size_t stride = size_t(nD) * size_t(nD) * 3;
-    std::vector<float>& chunk = buffers[cur];
-    chunk.assign(size_t(t1 - t0) * stride, 0.f);
-    parallelForChunks(
-        (t1 - t0) * nD, pt ? 1 : 8,
-        [&](int64_t b, int64_t e) {
-          uint64_t local = 0;
-          for (int64_t k = b; k < e; ++k) {
-            const int64_t t = t0 + k / nD;
-            const int view = int(k % nD);
-            local += uint64_t(kernel.eval(int(t % m_opt.nu), int(t / m_opt.nu), view,
-                                          &chunk[size_t(k / nD) * stride + size_t(view) * nD * 3]));
-            if (view == nD - 1) pr.add(1);
-          }
-          evals += local;
-        },
-        cancel);
-    if (cancel && cancel->cancelled()) {
-      waitWrite();  // the chunk in flight lands in the .partial; then the one outcome
-      throw Cancelled("aBRDF");
-    }
-    r.abrdfValues += uint64_t(t1 - t0) * uint64_t(nD) * uint64_t(nD);
-    if (m_sink) m_sink(c, t0, t1, chunk.data());
-    if (writer) {
-      waitWrite();  // at most one write in flight: the other buffer is free again
-      pending = std::async(std::launch::async, [&writer, c, data = chunk.data()] {
-        const auto w0 = Clock::now();
-        writer->writeChunk(c, data);
-        return since(w0);
-      });
-      cur ^= 1;
-    }
-  }
-  waitWrite();
+    waitWrite();
   });
   pr.finish();
   // Writes overlap the compute: the time spent waiting for the last one is not compute.
@@ -785,13 +783,12 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
     throwIfCancelled(cancel, "preview");
     gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
   }
-  TexelKernel kernel{*m_tracer, m_materials,    pair,    maps, direct,
-                     gather.get(), pt && indirect, nullptr, {},   1,
-                     {}};
+  TexelKernel kernel{*m_tracer,      m_materials, pair, maps, direct, gather.get(),
+                     pt && indirect, nullptr,     {},   1,    {}};
   std::unique_ptr<AdaptiveTexelSampler> adaptive;
   if (m_adaptive) {
-    adaptive = std::make_unique<AdaptiveTexelSampler>(*m_tracer, m_materials, pair, maps, direct, gather.get(),
-                                                      m_opt.adaptiveSettings, nullptr);
+    adaptive = std::make_unique<AdaptiveTexelSampler>(
+        *m_tracer, m_materials, pair, maps, direct, gather.get(), m_opt.adaptiveSettings, nullptr);
     kernel.adaptive = adaptive.get();
   }
   kernel.ptPaths = m_opt.ptPaths;

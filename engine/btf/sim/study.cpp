@@ -6,7 +6,6 @@
 #include <btf/sim/path_tracer.h>
 #include <btf/sim/simulator.h>
 #include <btf/sim/study.h>
-#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -15,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 namespace btf {

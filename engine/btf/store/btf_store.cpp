@@ -241,8 +241,8 @@ void BtfWriter::setDone(const std::vector<uint8_t>& done) {
 
 void BtfWriter::finishShared() {
   std::vector<TableEntry> table(m_done.size());
-  if (::pread(m_fd, table.data(), table.size() * sizeof(TableEntry),
-              off_t(m_layout.tableOffset)) != ssize_t(table.size() * sizeof(TableEntry)))
+  if (::pread(m_fd, table.data(), table.size() * sizeof(TableEntry), off_t(m_layout.tableOffset)) !=
+      ssize_t(table.size() * sizeof(TableEntry)))
     throw Error(sysError(m_partial, "cannot read back the chunk table"));
   for (size_t c = 0; c < table.size(); ++c) {
     if (table[c].state != kDone)

@@ -1,11 +1,17 @@
 // What a cluster job relies on, without MPI (docs/cluster.md): encoders that each add a share of
 // the texels and are merged (addedState / mergeAdded) write the arrays one encoder fed every
-// texel writes, for every codec; corrupt states are refused; the one-process communicator's
-// collectives and agreements.
+// texel writes, for every codec; corrupt states are refused; exact sums do not depend on the
+// order; the Gram-matrix PCA the nmf codec reduces equals the sample PCA; the one-process
+// communicator's collectives and agreements.
 #include <btf/compress/compress.h>
 #include <btf/core/comm.h>
 #include <btf/core/error.h>
+#include <btf/core/exact_sum.h>
+#include <btf/core/rng.h>
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
 
 #include "engine/compress/synthetic.h"
 #include "test_util.h"
@@ -116,4 +122,44 @@ TEST(Distributed, TheOneProcessCommunicator) {
   const std::vector<double> v = {0.25, 1e300, -0.0};
   EXPECT_EQ(unpackDoubles(packDoubles(v)), v);
   EXPECT_THROW(unpackDoubles("abc"), Error);
+}
+
+TEST(Distributed, ExactSumsAreTheSameBitsInAnyOrder) {
+  // Terms spanning 12 decades with both signs: a double sum depends on the order, the exact one
+  // does not, and stays within rounding of the true sum.
+  std::vector<double> terms;
+  for (int i = 0; i < 4000; ++i)
+    terms.push_back((i % 2 ? -1 : 1) * std::pow(10.0, (i % 13) - 6) * (1 + 1e-3 * i));
+  auto exact = [](const std::vector<double>& v) {
+    Exact s = 0;
+    for (double x : v) s += toExact(x);
+    return fromExact(s);
+  };
+  auto plain = [](const std::vector<double>& v) {
+    double s = 0;
+    for (double x : v) s += x;
+    return s;
+  };
+  std::vector<double> reversed(terms.rbegin(), terms.rend());
+  EXPECT_EQ(exact(terms), exact(reversed));
+  EXPECT_NE(plain(terms), plain(reversed));  // why the codecs do not use plain sums
+  long double truth = 0;
+  for (double x : terms) truth += x;
+  EXPECT_NEAR(exact(terms), double(truth), 4000 / kExactScale + 1e-15 * std::abs(double(truth)));
+}
+
+TEST(Distributed, PcaFromTheGramMatrixMatchesPcaFromTheSamples) {
+  Rng r(5);
+  la::MatF X(12, 40);
+  for (int64_t i = 0; i < X.size(); ++i) X.data()[i] = float(r.uniformDouble() - 0.3);
+  const la::Basis a = la::pcaBasis(X, 6);
+  const Eigen::MatrixXd Xd = X.cast<double>();
+  const la::Basis b = la::pcaBasisFromGram(Xd * Xd.transpose(), 6);
+  EXPECT_NEAR(a.total, b.total, 1e-9 * a.total);
+  ASSERT_EQ(a.B.cols(), b.B.cols());
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_NEAR(a.eigen[k], b.eigen[k], 1e-9 * a.eigen[0]);
+    // The same direction (up to sign).
+    EXPECT_NEAR(std::abs(a.B.col(k).dot(b.B.col(k))), 1.0f, 1e-4f) << k;
+  }
 }
