@@ -61,8 +61,8 @@ void compress(const Call& c) {
   json& j = c.rep.json;
   if (comm.distributed()) {
     BtfReader in(r.s("input"));
-    j["cluster"] =
-        clusterJson(comm, rep.texelsEncoded, double(in.info().texelBytes()), rep.commBytes);
+    j["cluster"] = clusterJson(comm, rep.texelsEncoded, double(in.info().texelBytes()),
+                               rep.commBytes, rep.encodeSeconds);
     if (!comm.root()) return;  // rank 0 writes and reports
   }
   c.ctx.check("encoder");

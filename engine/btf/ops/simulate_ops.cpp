@@ -75,34 +75,43 @@ json planJson(const EffectPlan& p) {
 void warnTarget(const Call& c, const CompressedBtf& b);
 std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss);
 
-json clusterJson(Comm& comm, int64_t texels, double texelBytes, uint64_t commBytes) {
-  // Per rank: texels, bytes of aBRDF it computed or encoded, bytes it sent and received.
-  const std::vector<double> mine = {double(texels), double(texels) * texelBytes, double(commBytes)};
+json clusterJson(Comm& comm, int64_t texels, double texelBytes, uint64_t commBytes,
+                 double seconds) {
+  // Per rank: texels, bytes of aBRDF it computed or encoded, bytes it sent and received, and the
+  // seconds of its own share.
+  const std::vector<double> mine = {double(texels), double(texels) * texelBytes, double(commBytes),
+                                    seconds};
   json ranks = json::array();
-  double worst = 0, maxBytes = 0;
+  double worst = 0, maxBytes = 0, slowest = 0, total = 0;
   for (const std::string& s : comm.allgather(packDoubles(mine))) {
     const std::vector<double> v = unpackDoubles(s);
     const double share = v[1] > 0 ? v[2] / v[1] : 0;
     worst = std::max(worst, share);
     maxBytes = std::max(maxBytes, v[2]);
+    slowest = std::max(slowest, v[3]);
+    total += v[3];
     ranks.push_back({{"texels", int64_t(v[0])},
                      {"data_bytes", v[1]},
                      {"communicated_bytes", v[2]},
-                     {"communicated_fraction", share}});
+                     {"communicated_fraction", share},
+                     {"seconds", v[3]}});
   }
   return {{"ranks", comm.size()},
           {"communicator", comm.describe()},
           {"max_communicated_bytes", maxBytes},
           {"max_communicated_fraction", worst},
+          {"balance", slowest > 0 ? total / (slowest * comm.size()) : 1.0},
           {"per_rank", ranks}};
 }
 
 std::string clusterText(const json& cl) {
-  std::string t = format("  cluster: %s; per rank:", cl["communicator"].get<std::string>().c_str());
+  std::string t =
+      format("  cluster: %s; balance %.0f %% (mean / slowest rank); per rank:",
+             cl["communicator"].get<std::string>().c_str(), 100 * cl["balance"].get<double>());
   int r = 0;
   for (const auto& x : cl["per_rank"])
-    t += format(" [%d] %lld texels, %s sent+received (%.3f %% of its data)", r++,
-                (long long)x["texels"].get<int64_t>(),
+    t += format(" [%d] %lld texels in %.1f s, %s sent+received (%.3f %% of its data)", r++,
+                (long long)x["texels"].get<int64_t>(), x["seconds"].get<double>(),
                 formatBytes(x["communicated_bytes"].get<double>()).c_str(),
                 100 * x["communicated_fraction"].get<double>());
   return t + "\n";
@@ -138,8 +147,14 @@ void simulate(const Call& c) {
   c.notice("effect plan (" + o.method + "):\n" + planText(job.plan()));
   c.notice(estimateText(est, o, !codec.empty()));
   if (comm.distributed())
-    c.notice(format("cluster job: %s; %d chunk(s) over %d rank(s), %d thread(s) each",
-                    comm.describe().c_str(), est.chunks, comm.size(), est.threads));
+    // Every rank repeats the hit maps and the light solve; the aBRDF is shared.
+    c.notice(format(
+        "cluster job: %s; %d chunk(s) over %d rank(s), %d thread(s) each; estimate "
+        "%s (each rank: hit maps %s, network light %s, aBRDF %s)",
+        comm.describe().c_str(), est.chunks, comm.size(), est.threads,
+        formatSeconds(est.hitMapSeconds + est.lightSeconds + est.evalSeconds / comm.size()).c_str(),
+        formatSeconds(est.hitMapSeconds).c_str(), formatSeconds(est.lightSeconds).c_str(),
+        formatSeconds(est.evalSeconds / comm.size()).c_str()));
   collectively(comm, [&] {
     if (!est.refusal.empty())
       throw Error(
@@ -200,7 +215,8 @@ void simulate(const Call& c) {
     const double finishSeconds = since(f0);
     const uint64_t commBytes = comm.bytesSent() + comm.bytesReceived() - comm0;
     if (comm.distributed())
-      j["cluster"] = clusterJson(comm, sr.texelsComputed, double(info.texelBytes()), commBytes);
+      j["cluster"] = clusterJson(comm, sr.texelsComputed, double(info.texelBytes()), commBytes,
+                                 sr.rankEvalSeconds);
     if (!comm.root()) return;
     c.ctx.check("encoder");
     writeCompressed(output, b);
@@ -234,8 +250,9 @@ void simulate(const Call& c) {
   const SimReport sr = job.run(output, est, c.ctx.cancel);
   if (!sr.resumeNote.empty()) c.warn(sr.resumeNote);
   if (comm.distributed())
-    j["cluster"] = clusterJson(comm, sr.texelsComputed,
-                               double(job.storeInfo(est.chunkTexels).texelBytes()), sr.commBytes);
+    j["cluster"] =
+        clusterJson(comm, sr.texelsComputed, double(job.storeInfo(est.chunkTexels).texelBytes()),
+                    sr.commBytes, sr.rankEvalSeconds);
   const double evalRate = sr.evalSeconds > 0 ? double(sr.abrdfValues) / sr.evalSeconds : 0;
   const double rayRate = sr.hitMapSeconds > 0 ? double(sr.hitMapRays) / sr.hitMapSeconds : 0;
   j["network_points"] = sr.networkPoints;

@@ -483,16 +483,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     comm.broadcast(done, 0);
     if (!comm.root()) writer->setDone(std::vector<uint8_t>(done.begin(), done.end()));
   }
-  // This rank's chunks: the missing ones in turn (chunks hold equal texel counts, so turns
-  // balance the estimated cost; neighbouring chunks, alike in cost, go to different ranks).
-  std::vector<uint8_t> mine(size_t(info.chunks()), 1);
-  if (dist) {
-    int k = 0;
-    for (int c = 0; c < info.chunks(); ++c) {
-      if (writer && writer->chunkDone(c)) continue;
-      mine[size_t(c)] = (k++ % comm.size()) == comm.rank();
-    }
-  }
+  std::vector<uint8_t> mine(size_t(info.chunks()), 1);  // this rank's chunks (after the maps)
   r.ranks = comm.size();
   r.chunks = info.chunks();
   r.chunksResumed = writer ? writer->chunksDone() : 0;
@@ -513,6 +504,35 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   }
   r.hitMapSeconds = since(start);
   r.hitMapRays = maps.raysTraced();
+  if (dist) {
+    // The missing chunks over the ranks by estimated cost, largest first to the least loaded
+    // rank (every rank computes the same assignment from the same maps). Cost: one per (texel,
+    // view), four more where the view's map has an edge in the texel's footprint — where
+    // adaptive sampling refines (uniform sampling: the texel count).
+    const int K = maps.grid().spp;
+    std::vector<std::pair<double, int>> cost;
+    for (int c = 0; c < info.chunks(); ++c) {
+      mine[size_t(c)] = 0;
+      if (writer && writer->chunkDone(c)) continue;
+      double w = 0;
+      for (int64_t t = info.chunkBegin(c); t < info.chunkEnd(c); ++t) {
+        const int i = int(t % m_opt.nu), j = int(t / m_opt.nu);
+        for (int d = 0; d < m_dirs.size(); ++d)
+          w += maps.hasEdgeTables() && maps.edgeCount(d, i * K, (i + 1) * K, j * K, (j + 1) * K)
+                   ? 5.0
+                   : 1.0;
+      }
+      cost.push_back({w, c});
+    }
+    std::stable_sort(cost.begin(), cost.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::vector<double> load(size_t(comm.size()), 0.0);
+    for (const auto& [w, c] : cost) {
+      const size_t q = size_t(std::min_element(load.begin(), load.end()) - load.begin());
+      load[q] += w;
+      if (int(q) == comm.rank()) mine[size_t(c)] = 1;
+    }
+  }
   r.precomputeSeconds = r.hitMapSeconds + (gi ? r.networkSeconds : 0);
   throwIfCancelled(cancel, "hit maps");
   const int nD = m_dirs.size();
@@ -676,6 +696,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
       }
     }
     waitWrite();
+    r.rankEvalSeconds = since(evalStart);  // this rank's own chunks, before the agreement
   });
   pr.finish();
   // Writes overlap the compute: the time spent waiting for the last one is not compute.

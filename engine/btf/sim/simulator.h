@@ -91,6 +91,7 @@ struct SimReport {
   // bytes it sent and received through the communicator.
   int ranks = 1, chunksComputed = 0;
   int64_t texelsComputed = 0;
+  double rankEvalSeconds = 0;  // this rank's aBRDF time (its chunks), before the final agreement
   uint64_t commBytes = 0;
 };
 

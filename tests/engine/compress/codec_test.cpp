@@ -69,15 +69,7 @@ TEST(Codecs, StreamingInAnyChunkingEqualsCompressingTheStoredFile) {
     s.components = 3;
     const CompressedBtf fromFile = compressStore(raw, s, false, nullptr, nullptr);
     // Stream: training texels first, then texels in reverse order in chunks of 5.
-    auto enc = makeEncoder(s, info);
-    const auto train = enc->trainingTexels();
-    if (!train.empty()) {
-      std::vector<float> tv;
-      for (int64_t t : train)
-        tv.insert(tv.end(), values.begin() + long(size_t(t) * stride),
-                  values.begin() + long(size_t(t + 1) * stride));
-      enc->train(tv.data());
-    }
+    auto enc = trainedEncoder(s, info, values);
     for (int64_t t1 = info.texels(); t1 > 0; t1 -= 5) {
       const int64_t t0 = std::max<int64_t>(0, t1 - 5);
       enc->add(t0, t1, values.data() + size_t(t0) * stride);

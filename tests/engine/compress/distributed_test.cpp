@@ -19,25 +19,6 @@
 using namespace btf;
 using namespace btf::test;
 
-namespace {
-
-std::unique_ptr<Encoder> trained(const CodecSettings& s, const BtfInfo& info,
-                                 const std::vector<float>& values) {
-  auto enc = makeEncoder(s, info);
-  const size_t stride = size_t(info.nDirs()) * info.nDirs() * 3;
-  const auto train = enc->trainingTexels();
-  if (!train.empty()) {
-    std::vector<float> tv;
-    for (int64_t t : train)
-      tv.insert(tv.end(), values.begin() + long(size_t(t) * stride),
-                values.begin() + long(size_t(t + 1) * stride));
-    enc->train(tv.data());
-  }
-  return enc;
-}
-
-}  // namespace
-
 TEST(Distributed, EncodersMergedFromThreeRanksWriteTheSameArraysAsOne) {
   const BtfInfo info = syntheticInfo(7, 6, "4x8");
   const auto values = syntheticValues(info, {3, 4, 20}, 30.0);
@@ -48,12 +29,12 @@ TEST(Distributed, EncodersMergedFromThreeRanksWriteTheSameArraysAsOne) {
     s.trainTexels = 16;
     s.clusters = 3;
     s.targetRatio = 8;
-    auto one = trained(s, info, values);
+    auto one = trainedEncoder(s, info, values);
     one->add(0, info.texels(), values.data());
     const CompressedBtf single = one->finish();
     // Three "ranks": chunk c of 5 texels goes to rank c mod 3; rank 0 merges 1 and 2.
     std::vector<std::unique_ptr<Encoder>> ranks;
-    for (int q = 0; q < 3; ++q) ranks.push_back(trained(s, info, values));
+    for (int q = 0; q < 3; ++q) ranks.push_back(trainedEncoder(s, info, values));
     for (int64_t t0 = 0, c = 0; t0 < info.texels(); t0 += 5, ++c) {
       const int64_t t1 = std::min<int64_t>(info.texels(), t0 + 5);
       ranks[size_t(c % 3)]->add(t0, t1, values.data() + size_t(t0) * stride);
@@ -67,7 +48,7 @@ TEST(Distributed, EncodersMergedFromThreeRanksWriteTheSameArraysAsOne) {
     EXPECT_EQ(single.paramsJson, merged.paramsJson) << codec;
     EXPECT_EQ(single.statsJson, merged.statsJson) << codec;
     // A rank that never received its share: finish names the missing texel.
-    auto partial = trained(s, info, values);
+    auto partial = trainedEncoder(s, info, values);
     partial->add(0, 5, values.data());
     EXPECT_THROW(partial->finish(), Error) << codec;
   }
@@ -81,11 +62,11 @@ TEST(Distributed, CorruptEncoderStatesAreRefused) {
     s.codec = codec;
     s.trainTexels = 8;
     s.clusters = 2;
-    auto a = trained(s, info, values);
+    auto a = trainedEncoder(s, info, values);
     a->add(0, 8, values.data());
     const std::string state = a->addedState();
     ASSERT_FALSE(state.empty()) << codec;
-    auto b = trained(s, info, values);
+    auto b = trainedEncoder(s, info, values);
     // Truncated by one byte; a texel index out of range.
     const std::string cut(state.begin(), state.end() - 1);
     EXPECT_THROW(b->mergeAdded(cut), Error) << codec;

@@ -1,11 +1,13 @@
 // Constructed BTFs for the compression tests (no simulation: known structure, exact values).
 #pragma once
+#include <btf/compress/codec.h>
 #include <btf/core/math.h>
 #include <btf/directions/direction_set.h>
 #include <btf/store/btf_store.h>
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -65,6 +67,22 @@ inline std::string writeRaw(const std::string& path, const BtfInfo& info,
     w.writeChunk(c, v.data() + size_t(info.chunkBegin(c)) * stride);
   w.finish();
   return path;
+}
+
+/// An encoder of settings `s`, trained on its training texels taken from `values` (texel-major).
+inline std::unique_ptr<Encoder> trainedEncoder(const CodecSettings& s, const BtfInfo& info,
+                                               const std::vector<float>& values) {
+  auto enc = makeEncoder(s, info);
+  const size_t stride = size_t(info.nDirs()) * info.nDirs() * 3;
+  const auto train = enc->trainingTexels();
+  if (!train.empty()) {
+    std::vector<float> tv;
+    for (int64_t t : train)
+      tv.insert(tv.end(), values.begin() + long(size_t(t) * stride),
+                values.begin() + long(size_t(t + 1) * stride));
+    enc->train(tv.data());
+  }
+  return enc;
 }
 
 }  // namespace btf::test
