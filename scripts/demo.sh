@@ -2,8 +2,9 @@
 # `make demo`: simulate the default scene (resources/scenes/brick.json) into out/ with the effects
 # its plan calls for (direct light, self-shadowing, inter-reflection by the point network), print
 # the plan and the summary, write slice images and the averaged BRDF, compress it (and stream a
-# simulation straight into the compressor), export to UBO2014 and MERL, run a small
-# accuracy-vs-time study against the path tracer, and say where everything is.
+# simulation straight into the compressor), export to UBO2014 and MERL, rerun the simulation on 2
+# MPI ranks (when Open MPI is installed), run a small accuracy-vs-time study against the path
+# tracer, and say where everything is.
 set -euo pipefail
 BUILD=${1:-build}
 SIM="$BUILD/app/btfsim"
@@ -37,6 +38,13 @@ echo "== export (UBO2014 within 1 % of the compressed BTF; MERL, symmetrised)"
 "$SIM" export out/brick.cbtf --format merl -o out/brick_merl.binary
 echo "== simulate and compress in one stream (no raw BTF on disk)"
 "$SIM" simulate "$SCENE" -o out/brick_streamed.cbtf --compress tensor --target-ratio 300 -q
+if command -v mpirun > /dev/null; then
+  echo "== the same simulation as one job of 2 MPI ranks (docs/cluster.md): the same bytes"
+  # mpirun refuses root unless told (containers, CI).
+  OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np 2 \
+    "$SIM" simulate "$SCENE" -o out/brick_mpi.btf -q
+  cmp out/brick.btf out/brick_mpi.btf && echo "out/brick_mpi.btf is byte-identical to out/brick.btf"
+fi
 echo "== accuracy vs time (small study: 16x16 texels, against the path tracer)"
 "$SIM" study "$SCENE" -o out/study --texels 16 --method network,pt --dirs bonn81,8x16 --spp 1,2 \
   --shadows map --network-voxels 0 --gather 4 --links 16 --bounces 3,1,2 --reference-spp 128 -q
