@@ -193,6 +193,17 @@ TEST(Cluster, StudyAndCompareGiveTheFiguresOfOneProcess) {
               1e-12 * c1["relative_rmse"].get<double>());
   EXPECT_GT(c1["relative_rmse"].get<double>(), 0.01);  // different samplings do differ
   EXPECT_EQ(c1["worst_texels"], c3["worst_texels"]);
+  // A damaged chunk in the last rank's share: every rank stops with that rank's message.
+  const std::string bad = (dir / "bad.btf").string();
+  fs::copy_file(p, bad);
+  {
+    std::fstream f(bad, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-100, std::ios::end);
+    f.put('\x5a');
+  }
+  EXPECT_NE(runBtfsim("compare " + p + " " + bad + " -q", &out, mpirun(3)), 0);
+  EXPECT_NE(out.find("rank 2 of 3"), std::string::npos) << out;
+  EXPECT_NE(out.find("checksum mismatch"), std::string::npos) << out;
 }
 
 TEST(Cluster, TheBuildWithoutMpiWritesTheSameFile) {

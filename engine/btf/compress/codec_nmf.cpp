@@ -129,6 +129,18 @@ class NmfEncoder final : public Encoder {
     const int64_t T = m_info.texels();
     int64_t local = 0;
     for (uint8_t d : m_done) local += d;
+    // This rank's blocks: 32-texel cells cut at the chunk boundaries, wholly added here.
+    const int64_t cell = 32, chunk = std::max(1, m_info.chunkTexels);
+    std::vector<std::pair<int64_t, int64_t>> blocks;
+    int64_t split = 0;  // blocks only partly added here (the ranks did not hold whole chunks)
+    for (int64_t t0 = 0; t0 < T;) {
+      const int64_t t1 = std::min({T, (t0 / cell + 1) * cell, (t0 / chunk + 1) * chunk});
+      int64_t here = 0;
+      for (int64_t t = t0; t < t1; ++t) here += m_done[size_t(t)];
+      if (here == t1 - t0) blocks.push_back({t0, t1});
+      if (here != 0 && here != t1 - t0) ++split;
+      t0 = t1;
+    }
     // Slot counts, factor counts, rank histogram, done texels: exact integer sums; K by max.
     const int H = m_s.maxRank + 1;
     std::vector<Exact> counts(size_t(3 + H + 1) + 3 * 3, 0);
@@ -148,14 +160,20 @@ class NmfEncoder final : public Encoder {
     counts[size_t(3 + H)] = local;
     counts[size_t(3 + H + 1 + 2)] = m_iters;  // spare slot of channel 0: the NMF iterations
     counts[size_t(3 + H + 1 + 5)] = m_solves;
+    counts.push_back(split);
     comm.sumExact(counts);
+    // Every rank sees the same sums, so every rank fails together (CollectiveError).
     if (counts[size_t(3 + H)] != T) {
       for (int64_t t = 0; t < T; ++t)
         if (!m_done[size_t(t)] && !comm.distributed())
           throw Error("nmf encoder: texel " + std::to_string(t) + " was never added");
-      throw Error("nmf encoder: " + std::to_string(int64_t(counts[size_t(3 + H)])) + " of " +
-                  std::to_string(T) + " texels were added over the ranks");
+      throw CollectiveError("nmf encoder: " + std::to_string(int64_t(counts[size_t(3 + H)])) +
+                            " of " + std::to_string(T) + " texels were added over the ranks");
     }
+    if (counts.back() > 0)
+      throw CollectiveError("nmf encoder: " + std::to_string(int64_t(counts.back())) +
+                            " block(s) of texels were split between ranks (a rank must add whole "
+                            "chunks of the store)");
     if (comm.distributed()) {
       std::string mine(reinterpret_cast<const char*>(K), sizeof K);
       for (const std::string& o : comm.allgather(mine)) {
@@ -197,18 +215,6 @@ class NmfEncoder final : public Encoder {
     const size_t tri = size_t(m_n) * size_t(m_n + 1) / 2;
     std::vector<Exact> gram(6 * tri, 0);
     {
-      const int64_t cell = 32, chunk = std::max(1, m_info.chunkTexels);
-      std::vector<std::pair<int64_t, int64_t>> blocks;
-      for (int64_t t0 = 0; t0 < T;) {
-        const int64_t t1 = std::min({T, (t0 / cell + 1) * cell, (t0 / chunk + 1) * chunk});
-        int64_t here = 0;
-        for (int64_t t = t0; t < t1; ++t) here += m_done[size_t(t)];
-        if (here == t1 - t0) blocks.push_back({t0, t1});
-        if (here != 0 && here != t1 - t0)
-          throw Error("nmf encoder: texels " + std::to_string(t0) + ".." + std::to_string(t1 - 1) +
-                      " were split between ranks (a rank must hold whole chunks)");
-        t0 = t1;
-      }
       std::mutex mutex;
       parallelForChunks(int64_t(blocks.size()) * 6, 1, [&](int64_t b0, int64_t b1) {
         std::vector<Exact> acc(tri, 0);

@@ -94,7 +94,7 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
   const auto f0 = Clock::now();
   CompressedBtf out;
   r.ranks = comm.size();
-  collectively(comm, [&] { out = enc->finishOn(comm); });
+  out = enc->finishOn(comm);  // holds collectives: never inside collectively()
   r.commBytes = comm.bytesSent() + comm.bytesReceived() - comm0;
   if (!comm.root()) {
     r.seconds = since(start);
@@ -135,42 +135,45 @@ ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, 
   // This rank's texels: a contiguous share.
   const int64_t lo = T * comm.rank() / comm.size(), hi = T * (comm.rank() + 1) / comm.size();
   ProgressReporter pr("compare", hi - lo, progress);
-  parallelForChunks(
-      hi - lo, 8,
-      [&](int64_t b0, int64_t b1) {
-        const int64_t t0 = lo + b0, t1 = lo + b1;
-        std::vector<float> x(lv * 3), y(lv * 3);
-        std::vector<double> dirs(lv, 0.0);
-        double se = 0, sr = 0, pk = 0, mx = 0;
-        for (int64_t t = t0; t < t1; ++t) {
-          ref.texel(t, x.data());
-          test.texel(t, y.data());
-          double te = 0;
-          for (size_t k = 0; k < lv; ++k) {
-            double de = 0;
-            for (int c = 0; c < 3; ++c) {
-              const double xv = x[k * 3 + size_t(c)], d = xv - y[k * 3 + size_t(c)];
-              de += d * d;
-              sr += xv * xv;
-              pk = std::max(pk, xv);
-              mx = std::max(mx, std::abs(d));
+  // A damaged chunk in one rank's share fails every rank together (no collective inside).
+  collectively(comm, [&] {
+    parallelForChunks(
+        hi - lo, 8,
+        [&](int64_t b0, int64_t b1) {
+          const int64_t t0 = lo + b0, t1 = lo + b1;
+          std::vector<float> x(lv * 3), y(lv * 3);
+          std::vector<double> dirs(lv, 0.0);
+          double se = 0, sr = 0, pk = 0, mx = 0;
+          for (int64_t t = t0; t < t1; ++t) {
+            ref.texel(t, x.data());
+            test.texel(t, y.data());
+            double te = 0;
+            for (size_t k = 0; k < lv; ++k) {
+              double de = 0;
+              for (int c = 0; c < 3; ++c) {
+                const double xv = x[k * 3 + size_t(c)], d = xv - y[k * 3 + size_t(c)];
+                de += d * d;
+                sr += xv * xv;
+                pk = std::max(pk, xv);
+                mx = std::max(mx, std::abs(d));
+              }
+              dirs[k] += de;
+              te += de;
             }
-            dirs[k] += de;
-            te += de;
+            se += te;
+            r.texelRmse[size_t(t)] = float(std::sqrt(te / double(lv * 3)));
+            pr.add(1);
           }
-          se += te;
-          r.texelRmse[size_t(t)] = float(std::sqrt(te / double(lv * 3)));
-          pr.add(1);
-        }
-        std::lock_guard<std::mutex> lock(mutex);
-        for (size_t k = 0; k < lv; ++k) dirSum[k] += dirs[k];
-        sumErr += se;
-        sumRef += sr;
-        peak = std::max(peak, pk);
-        maxAbs = std::max(maxAbs, mx);
-      },
-      cancel);
-  if (cancel && cancel->cancelled()) throw Cancelled("compare");
+          std::lock_guard<std::mutex> lock(mutex);
+          for (size_t k = 0; k < lv; ++k) dirSum[k] += dirs[k];
+          sumErr += se;
+          sumRef += sr;
+          peak = std::max(peak, pk);
+          maxAbs = std::max(maxAbs, mx);
+        },
+        cancel);
+    if (cancel && cancel->cancelled()) throw Cancelled("compare");
+  });
   pr.finish();
   if (comm.distributed()) {
     // Sums in rank order; the per-texel errors of every share.

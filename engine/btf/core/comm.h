@@ -56,7 +56,9 @@ Comm& localComm();
 
 /// Runs `fn` on every rank and agrees on the outcome: when it threw btf::Error on some ranks,
 /// every rank throws CollectiveError with the first such rank's message ("rank R of N: " in front
-/// when only some ranks failed), so no rank is left waiting in a later collective.
+/// when only some ranks failed), so no rank is left waiting in a later collective. `fn` itself
+/// must hold no collective (a rank that failed before it would skip it): code with collectives
+/// lets a rank's own error escape, and btfsim ends the job with MPI_Abort after printing it.
 void collectively(Comm& comm, const std::function<void()>& fn);
 
 /// Every rank must hold the same `value` (a request, a scene): otherwise every rank throws

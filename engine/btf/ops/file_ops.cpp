@@ -103,9 +103,7 @@ void compare(const Call& c) {
     A = openBtf(r.s("a"));
     B = openBtf(r.s("b"));
   });
-  ErrorReport e;
-  collectively(comm,
-               [&] { e = compareBtfs(*A, *B, c.progress(), r.i("worst"), c.ctx.cancel, &comm); });
+  const ErrorReport e = compareBtfs(*A, *B, c.progress(), r.i("worst"), c.ctx.cancel, &comm);
   if (!r.s("maps").empty() && comm.root()) writeErrorMaps(e, r.s("maps"));
   auto ratioOf = [](const std::string& p) {
     return isCompressedFile(p) ? readCompressed(p).ratio() : 1.0;
@@ -123,11 +121,8 @@ void compare(const Call& c) {
     // Two independent simulations differ by √2 × the noise of one: that is A's own floor. B's
     // error in excess of it adds in quadrature (independent errors).
     std::unique_ptr<Decoder> N;
-    ErrorReport f;
-    collectively(comm, [&] {
-      N = openBtf(r.s("noise"));
-      f = compareBtfs(*A, *N, c.progress(), 0, c.ctx.cancel, &comm);
-    });
+    collectively(comm, [&] { N = openBtf(r.s("noise")); });
+    const ErrorReport f = compareBtfs(*A, *N, c.progress(), 0, c.ctx.cancel, &comm);
     const double floorRmse = f.rmse / std::sqrt(2.0), floorRel = f.relRmse / std::sqrt(2.0);
     const double excessRel = std::sqrt(std::max(0.0, e.relRmse * e.relRmse - floorRel * floorRel));
     j["noise"] = {{"path", r.s("noise")},

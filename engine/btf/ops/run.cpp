@@ -198,7 +198,6 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
       r.command() == "study" || (r.command() == "export" && r.s("format") == "ubo2003");
   std::unique_ptr<OutputLock> lock;
   collectively(ctx.processes(), [&] {
-    r.validate();
     if (!out.empty()) {
       checkOutputPath(out, folderOut);
       // In a cluster job rank 0 holds the lock and makes the folder for the job's ranks.

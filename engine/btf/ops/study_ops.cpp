@@ -186,8 +186,7 @@ void study(const Call& c) {
         format("cluster job: %s; configuration i runs on rank i mod %d, each with %d "
                "thread(s): the times are theirs",
                comm.describe().c_str(), comm.size(), currentThreads()));
-  Study st;
-  collectively(comm, [&] { st = runStudy(scene, o); });
+  const Study st = runStudy(scene, o);
   // Rank 0 writes the tables (and runs the compression study, alone).
   if (!comm.root()) return;
   writeStudy(st, dir);

@@ -188,125 +188,128 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
   for (size_t i = size_t(comm.rank()); i < configs.size(); i += size_t(comm.size()))
     mine.push_back(i);
   ProgressReporter pr("study", int64_t(mine.size()), o.progress);
-  for (const size_t ci : mine) {
-    const StudyConfig& c = configs[ci];
-    if (o.cancel && o.cancel->cancelled()) throw Cancelled("study");
-    SimOptions so = base;
-    so.method = c.method;
-    so.ptPaths = c.paths;
-    so.directions = c.dirs;
-    // spp 0: adaptive sampling (the default); K > 0: uniform K×K. The path tracer is uniform.
-    so.adaptive = c.spp == 0 && c.method != "pt";
-    so.spp = std::max(1, c.spp);
-    so.shadows = c.shadows;
-    so.seed = o.seed;
-    so.network.voxels = c.voxels;
-    so.network.gather = c.gather;
-    so.network.links = c.links;
-    so.plan.selfShadowing = Toggle::On;
-    so.plan.interreflection = c.bounces > 1 ? Toggle::On : Toggle::Off;
-    so.plan.bounces = c.bounces > 1 ? c.bounces : 0;
-    StudyResult res;
-    res.config = c;
-    const auto start = Clock::now();
-    SimulationJob job(scene, so);
-    job.plan();  // builds the network: part of the measured time
-    const double planSeconds = since(start);
-    // Sinks: the tile average of every (view, light) and the per-texel images of the probes.
-    const DirectionSet& dirs = job.directions();
-    const int n = dirs.size();
-    std::vector<double> avg(size_t(n) * n * 3, 0.0);
-    std::vector<std::vector<DirWeight>> wv(st.probes.size()), wl(st.probes.size());
-    for (size_t p = 0; p < st.probes.size(); ++p) {
-      const DVec3 a = st.probes[p].wo, b = st.probes[p].wi;
-      wv[p] = dirs.interpolate(std::acos(std::clamp(a.z, -1.0, 1.0)), std::atan2(a.y, a.x));
-      wl[p] = dirs.interpolate(std::acos(std::clamp(b.z, -1.0, 1.0)), std::atan2(b.y, b.x));
-    }
-    std::vector<std::vector<Rgb>> images(st.imageProbes.size(),
-                                         std::vector<Rgb>(size_t(o.nu) * o.nv, Rgb(0)));
-    job.setChunkSink([&](int, int64_t t0c, int64_t t1c, const float* v) {
-      const size_t stride = size_t(n) * n * 3;
-      for (int64_t t = t0c; t < t1c; ++t) {
-        const float* m = v + size_t(t - t0c) * stride;
-        for (size_t k = 0; k < stride; ++k) avg[k] += m[k];
-        for (size_t q = 0; q < st.imageProbes.size(); ++q) {
-          const size_t p = size_t(st.imageProbes[q]);
-          Rgb x(0);
-          for (const auto& a : wv[p])
-            for (const auto& b : wl[p]) {
-              const float* e = m + (size_t(a.index) * n + size_t(b.index)) * 3;
-              x += float(a.weight * b.weight) * Rgb(e[0], e[1], e[2]);
-            }
-          images[q][size_t(t)] = x;
-        }
+  // A failure in one rank's configurations fails every rank together (no collective inside).
+  collectively(comm, [&] {
+    for (const size_t ci : mine) {
+      const StudyConfig& c = configs[ci];
+      if (o.cancel && o.cancel->cancelled()) throw Cancelled("study");
+      SimOptions so = base;
+      so.method = c.method;
+      so.ptPaths = c.paths;
+      so.directions = c.dirs;
+      // spp 0: adaptive sampling (the default); K > 0: uniform K×K. The path tracer is uniform.
+      so.adaptive = c.spp == 0 && c.method != "pt";
+      so.spp = std::max(1, c.spp);
+      so.shadows = c.shadows;
+      so.seed = o.seed;
+      so.network.voxels = c.voxels;
+      so.network.gather = c.gather;
+      so.network.links = c.links;
+      so.plan.selfShadowing = Toggle::On;
+      so.plan.interreflection = c.bounces > 1 ? Toggle::On : Toggle::Off;
+      so.plan.bounces = c.bounces > 1 ? c.bounces : 0;
+      StudyResult res;
+      res.config = c;
+      const auto start = Clock::now();
+      SimulationJob job(scene, so);
+      job.plan();  // builds the network: part of the measured time
+      const double planSeconds = since(start);
+      // Sinks: the tile average of every (view, light) and the per-texel images of the probes.
+      const DirectionSet& dirs = job.directions();
+      const int n = dirs.size();
+      std::vector<double> avg(size_t(n) * n * 3, 0.0);
+      std::vector<std::vector<DirWeight>> wv(st.probes.size()), wl(st.probes.size());
+      for (size_t p = 0; p < st.probes.size(); ++p) {
+        const DVec3 a = st.probes[p].wo, b = st.probes[p].wi;
+        wv[p] = dirs.interpolate(std::acos(std::clamp(a.z, -1.0, 1.0)), std::atan2(a.y, a.x));
+        wl[p] = dirs.interpolate(std::acos(std::clamp(b.z, -1.0, 1.0)), std::atan2(b.y, b.x));
       }
-    });
-    SimEstimate est = job.estimate("");
-    const auto runStart = Clock::now();
-    const SimReport rep = job.run("", est);
-    res.seconds = planSeconds + since(runStart);
-    res.precomputeSeconds = rep.precomputeSeconds;
-    res.renderSeconds = rep.renderSeconds;
-    res.networkPoints = rep.networkPoints;
-    res.peakRssBytes = rep.peakRssBytes;
-    const double invT = 1.0 / double(int64_t(o.nu) * o.nv);
-    double errSq = 0;
-    for (size_t p = 0; p < st.probes.size(); ++p) {
-      Rgb x(0);
-      for (const auto& a : wv[p])
-        for (const auto& b : wl[p]) {
-          const size_t k = (size_t(a.index) * n + size_t(b.index)) * 3;
-          x += float(a.weight * b.weight * invT) * Rgb(avg[k], avg[k + 1], avg[k + 2]);
+      std::vector<std::vector<Rgb>> images(st.imageProbes.size(),
+                                           std::vector<Rgb>(size_t(o.nu) * o.nv, Rgb(0)));
+      job.setChunkSink([&](int, int64_t t0c, int64_t t1c, const float* v) {
+        const size_t stride = size_t(n) * n * 3;
+        for (int64_t t = t0c; t < t1c; ++t) {
+          const float* m = v + size_t(t - t0c) * stride;
+          for (size_t k = 0; k < stride; ++k) avg[k] += m[k];
+          for (size_t q = 0; q < st.imageProbes.size(); ++q) {
+            const size_t p = size_t(st.imageProbes[q]);
+            Rgb x(0);
+            for (const auto& a : wv[p])
+              for (const auto& b : wl[p]) {
+                const float* e = m + (size_t(a.index) * n + size_t(b.index)) * 3;
+                x += float(a.weight * b.weight) * Rgb(e[0], e[1], e[2]);
+              }
+            images[q][size_t(t)] = x;
+          }
         }
-      res.probeValues.push_back(x);
-      const Rgb d = x - st.reference[p];
-      errSq += double(glm::dot(d, d));
-      const float r = std::max(st.reference[p].x, std::max(st.reference[p].y, st.reference[p].z));
-      if (r > 1e-3f)
-        for (int ch = 0; ch < 3; ++ch)
-          if (st.reference[p][ch] > 1e-3f)
-            res.probeMaxRel =
-                std::max(res.probeMaxRel, double(std::abs(d[ch]) / st.reference[p][ch]));
-    }
-    res.probeRelRmse = refSq > 0 ? std::sqrt(errSq / refSq) : std::sqrt(errSq);
-    // Snapped probes: the nearest direction of the set for light and view, the BTF read without
-    // interpolation, and a path-traced reference at exactly those directions (cached per set).
-    std::vector<DirectionPair> snapped;
-    std::vector<std::pair<int, int>> snappedIdx;
-    for (const auto& pr0 : st.probes) {
-      const int a = dirs.nearest(pr0.wi), b = dirs.nearest(pr0.wo);
-      snapped.push_back({dirs[a].w, dirs[b].w});
-      snappedIdx.push_back({a, b});
-    }
-    auto it = setReference.find(c.dirs);
-    if (it == setReference.end())
-      it = setReference
-               .emplace(c.dirs, pathTracedBrdf(refJob.tracer(), refJob.materials(), snapped,
-                                               o.referenceSamples, 1, ps))
-               .first;
-    double sErr = 0, sRef = 0;
-    for (size_t p = 0; p < snapped.size(); ++p) {
-      const size_t k =
-          (size_t(snappedIdx[p].second) * n + size_t(snappedIdx[p].first)) * 3;  // [view][light]
-      const Rgb x = float(invT) * Rgb(avg[k], avg[k + 1], avg[k + 2]);
-      res.setValues.push_back(x);
-      res.setReference.push_back(it->second[p]);
-      const Rgb d = x - it->second[p];
-      sErr += double(glm::dot(d, d));
-      sRef += double(glm::dot(it->second[p], it->second[p]));
-    }
-    res.setRelRmse = sRef > 0 ? std::sqrt(sErr / sRef) : std::sqrt(sErr);
-    double iErr = 0, iRef = 0;
-    for (size_t q = 0; q < images.size(); ++q)
-      for (size_t t = 0; t < images[q].size(); ++t) {
-        const Rgb d = images[q][t] - refImages[q][t];
-        iErr += double(glm::dot(d, d));
-        iRef += double(glm::dot(refImages[q][t], refImages[q][t]));
+      });
+      SimEstimate est = job.estimate("");
+      const auto runStart = Clock::now();
+      const SimReport rep = job.run("", est);
+      res.seconds = planSeconds + since(runStart);
+      res.precomputeSeconds = rep.precomputeSeconds;
+      res.renderSeconds = rep.renderSeconds;
+      res.networkPoints = rep.networkPoints;
+      res.peakRssBytes = rep.peakRssBytes;
+      const double invT = 1.0 / double(int64_t(o.nu) * o.nv);
+      double errSq = 0;
+      for (size_t p = 0; p < st.probes.size(); ++p) {
+        Rgb x(0);
+        for (const auto& a : wv[p])
+          for (const auto& b : wl[p]) {
+            const size_t k = (size_t(a.index) * n + size_t(b.index)) * 3;
+            x += float(a.weight * b.weight * invT) * Rgb(avg[k], avg[k + 1], avg[k + 2]);
+          }
+        res.probeValues.push_back(x);
+        const Rgb d = x - st.reference[p];
+        errSq += double(glm::dot(d, d));
+        const float r = std::max(st.reference[p].x, std::max(st.reference[p].y, st.reference[p].z));
+        if (r > 1e-3f)
+          for (int ch = 0; ch < 3; ++ch)
+            if (st.reference[p][ch] > 1e-3f)
+              res.probeMaxRel =
+                  std::max(res.probeMaxRel, double(std::abs(d[ch]) / st.reference[p][ch]));
       }
-    res.imageRelRmse = iRef > 0 ? std::sqrt(iErr / iRef) : std::sqrt(iErr);
-    st.results.push_back(res);
-    pr.add(1);
-  }
+      res.probeRelRmse = refSq > 0 ? std::sqrt(errSq / refSq) : std::sqrt(errSq);
+      // Snapped probes: the nearest direction of the set for light and view, the BTF read without
+      // interpolation, and a path-traced reference at exactly those directions (cached per set).
+      std::vector<DirectionPair> snapped;
+      std::vector<std::pair<int, int>> snappedIdx;
+      for (const auto& pr0 : st.probes) {
+        const int a = dirs.nearest(pr0.wi), b = dirs.nearest(pr0.wo);
+        snapped.push_back({dirs[a].w, dirs[b].w});
+        snappedIdx.push_back({a, b});
+      }
+      auto it = setReference.find(c.dirs);
+      if (it == setReference.end())
+        it = setReference
+                 .emplace(c.dirs, pathTracedBrdf(refJob.tracer(), refJob.materials(), snapped,
+                                                 o.referenceSamples, 1, ps))
+                 .first;
+      double sErr = 0, sRef = 0;
+      for (size_t p = 0; p < snapped.size(); ++p) {
+        const size_t k =
+            (size_t(snappedIdx[p].second) * n + size_t(snappedIdx[p].first)) * 3;  // [view][light]
+        const Rgb x = float(invT) * Rgb(avg[k], avg[k + 1], avg[k + 2]);
+        res.setValues.push_back(x);
+        res.setReference.push_back(it->second[p]);
+        const Rgb d = x - it->second[p];
+        sErr += double(glm::dot(d, d));
+        sRef += double(glm::dot(it->second[p], it->second[p]));
+      }
+      res.setRelRmse = sRef > 0 ? std::sqrt(sErr / sRef) : std::sqrt(sErr);
+      double iErr = 0, iRef = 0;
+      for (size_t q = 0; q < images.size(); ++q)
+        for (size_t t = 0; t < images[q].size(); ++t) {
+          const Rgb d = images[q][t] - refImages[q][t];
+          iErr += double(glm::dot(d, d));
+          iRef += double(glm::dot(refImages[q][t], refImages[q][t]));
+        }
+      res.imageRelRmse = iRef > 0 ? std::sqrt(iErr / iRef) : std::sqrt(iErr);
+      st.results.push_back(res);
+      pr.add(1);
+    }
+  });
   pr.finish();
   if (comm.distributed()) {
     // Every rank's results to rank 0, back in configuration order.
