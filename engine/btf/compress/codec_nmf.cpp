@@ -141,9 +141,13 @@ class NmfEncoder final : public Encoder {
       if (here != 0 && here != t1 - t0) ++split;
       t0 = t1;
     }
-    // Slot counts, factor counts, rank histogram, done texels: exact integer sums; K by max.
+    // Every sum the file depends on, in one vector reduced once: factors per channel, the rank
+    // histogram of channel 0, texels added, residual and energy per channel, NMF iterations and
+    // solves, blocks split between ranks. K (slots) is a maximum, exchanged apart.
     const int H = m_s.maxRank + 1;
-    std::vector<Exact> counts(size_t(3 + H + 1) + 3 * 3, 0);
+    const size_t kHist = 3, kAdded = kHist + size_t(H), kErr = kAdded + 1, kEnergy = kErr + 3,
+                 kIters = kEnergy + 3, kSolves = kIters + 1, kSplit = kSolves + 1;
+    std::vector<Exact> counts(kSplit + 1, 0);
     int K[3] = {0, 0, 0};
     for (int64_t t = 0; t < T; ++t) {
       if (!m_done[size_t(t)]) continue;
@@ -151,27 +155,27 @@ class NmfEncoder final : public Encoder {
         const int r = m_f[size_t(t) * 3 + size_t(c)].rank();
         K[c] = std::max(K[c], r);
         counts[size_t(c)] += r;
-        if (c == 0) counts[size_t(3 + r)] += 1;
+        if (c == 0) counts[kHist + size_t(r)] += 1;
         const size_t i = size_t(t) * 3 + size_t(c);
-        counts[size_t(3 + H + 1 + c * 3)] += toExact(m_texelErr2[i]);
-        counts[size_t(3 + H + 1 + c * 3 + 1)] += toExact(m_texelEnergy[i]);
+        counts[kErr + size_t(c)] += toExact(m_texelErr2[i]);
+        counts[kEnergy + size_t(c)] += toExact(m_texelEnergy[i]);
       }
     }
-    counts[size_t(3 + H)] = local;
-    counts[size_t(3 + H + 1 + 2)] = m_iters;  // spare slot of channel 0: the NMF iterations
-    counts[size_t(3 + H + 1 + 5)] = m_solves;
-    counts.push_back(split);
+    counts[kAdded] = local;
+    counts[kIters] = m_iters;
+    counts[kSolves] = m_solves;
+    counts[kSplit] = split;
     comm.sumExact(counts);
     // Every rank sees the same sums, so every rank fails together (CollectiveError).
-    if (counts[size_t(3 + H)] != T) {
+    if (counts[kAdded] != T) {
       for (int64_t t = 0; t < T; ++t)
         if (!m_done[size_t(t)] && !comm.distributed())
           throw Error("nmf encoder: texel " + std::to_string(t) + " was never added");
-      throw CollectiveError("nmf encoder: " + std::to_string(int64_t(counts[size_t(3 + H)])) +
-                            " of " + std::to_string(T) + " texels were added over the ranks");
+      throw CollectiveError("nmf encoder: " + std::to_string(int64_t(counts[kAdded])) + " of " +
+                            std::to_string(T) + " texels were added over the ranks");
     }
-    if (counts.back() > 0)
-      throw CollectiveError("nmf encoder: " + std::to_string(int64_t(counts.back())) +
+    if (counts[kSplit] > 0)
+      throw CollectiveError("nmf encoder: " + std::to_string(int64_t(counts[kSplit])) +
                             " block(s) of texels were split between ranks (a rank must add whole "
                             "chunks of the store)");
     if (comm.distributed()) {
@@ -186,13 +190,13 @@ class NmfEncoder final : public Encoder {
     double err2 = 0, energy = 0, chanEnergy[3];
     for (int c = 0; c < 3; ++c) {
       nf[c] = int64_t(counts[size_t(c)]);
-      const double e2 = fromExact(counts[size_t(3 + H + 1 + c * 3)]);
-      chanEnergy[c] = fromExact(counts[size_t(3 + H + 1 + c * 3 + 1)]);
+      const double e2 = fromExact(counts[kErr + size_t(c)]);
+      chanEnergy[c] = fromExact(counts[kEnergy + size_t(c)]);
       err2 += e2;
       energy += chanEnergy[c];
     }
-    const int64_t iters = int64_t(counts[size_t(3 + H + 1 + 2)]);
-    const int64_t solves = int64_t(counts[size_t(3 + H + 1 + 5)]);
+    const int64_t iters = int64_t(counts[kIters]);
+    const int64_t solves = int64_t(counts[kSolves]);
 
     CompressedBtf out;
     out.info = m_info;
@@ -375,7 +379,7 @@ class NmfEncoder final : public Encoder {
     out.quantize();
     params["channels"] = chans;
     nlohmann::ordered_json hist = nlohmann::ordered_json::array();
-    for (int r = 0; r < H; ++r) hist.push_back(int64_t(counts[size_t(3 + r)]));
+    for (int r = 0; r < H; ++r) hist.push_back(int64_t(counts[kHist + size_t(r)]));
     params["rank_histogram_channel0"] = hist;
     out.paramsJson = params.dump();
     nlohmann::ordered_json st;

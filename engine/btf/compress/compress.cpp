@@ -46,6 +46,7 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
     const BtfInfo& info = in.info();
     enc = makeEncoder(s, info, cancel);
     r.texels = info.texels();
+    r.texelBytes = double(info.texelBytes());
     const auto train = enc->trainingTexels();
     const size_t stride = size_t(info.nDirs()) * info.nDirs() * 3;
     if (s.memoryBudget > 0) {

@@ -18,6 +18,7 @@ struct CompressReport {
   // A cluster job: ranks, this rank's encoded texels and its communicated bytes.
   int ranks = 1;
   int64_t texelsEncoded = 0;
+  double texelBytes = 0;  // raw bytes of one texel
   uint64_t commBytes = 0;
 };
 

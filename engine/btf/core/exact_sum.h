@@ -12,9 +12,11 @@ __extension__ typedef __int128 Exact;
 
 constexpr double kExactScale = 1125899906842624.0;  // 2^50
 
-/// x finite and |x| < 2^76.
+/// |x| < 2^76; a non-finite x (which no caller should pass) counts as 0 rather than as undefined
+/// behaviour in the conversion.
 inline Exact toExact(double x) {
-  return Exact(std::nearbyint(x * kExactScale));
+  const double y = std::nearbyint(x * kExactScale);
+  return std::isfinite(y) && std::abs(y) < 0x1p126 ? Exact(y) : Exact(0);
 }
 inline double fromExact(Exact v) {
   return double(v) / kExactScale;

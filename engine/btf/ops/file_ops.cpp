@@ -60,9 +60,8 @@ void compress(const Call& c) {
   const CompressedBtf b = compressStore(r.s("input"), cs, c.progress(), c.ctx.cancel, &rep, &comm);
   json& j = c.rep.json;
   if (comm.distributed()) {
-    BtfReader in(r.s("input"));
-    j["cluster"] = clusterJson(comm, rep.texelsEncoded, double(in.info().texelBytes()),
-                               rep.commBytes, rep.encodeSeconds);
+    j["cluster"] =
+        clusterJson(comm, rep.texelsEncoded, rep.texelBytes, rep.commBytes, rep.encodeSeconds);
     if (!comm.root()) return;  // rank 0 writes and reports
   }
   c.ctx.check("encoder");
