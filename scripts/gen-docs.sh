@@ -8,7 +8,7 @@ BUILD=${1:-build}
 B="$BUILD/app/btfsim"
 [ -x "$B" ] || { echo "gen-docs: build btfsim first (make build)" >&2; exit 1; }
 mkdir -p docs/schemas/requests
-for c in simulate compress compare export plan bench study brdf slice info; do
+for c in simulate compress compare export plan bench study brdf slice render info; do
   "$B" schema --command "$c" -o "docs/schemas/requests/$c.json"
 done
 gen=$(mktemp)

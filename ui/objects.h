@@ -15,7 +15,8 @@ struct ObjectMesh {
   float radius = 1;  // bounding radius about the origin, for framing
 };
 
-/// "plane", "sphere", "cylinder", or a cage name in resources/objects ("vase", "cushion",
+/// An object of btf/render/objects.h ("plane", "sphere", "cylinder", "section", "hills", or a
+/// cage of resources/objects: "vase", "cushion",
 /// "chair"); `level` refinement levels for cages. Throws btf::Error for unknown names or a bad
 /// cage (file and line).
 ObjectMesh makeObject(const std::string& name, int level = 3);

@@ -15,21 +15,36 @@ float linearToSrgb(float v) {
 
 void writeRgbImage(const std::string& path, int w, int h, const std::vector<float>& rgb,
                    float scale, bool flipY, const ImageMetadata& metadata) {
+  writeRgbaImage(path, w, h, rgb, nullptr, scale, flipY, metadata);
+}
+
+void writeRgbaImage(const std::string& path, int w, int h, const std::vector<float>& rgb,
+                    const std::vector<float>* alpha, float scale, bool flipY,
+                    const ImageMetadata& metadata) {
   BTF_CHECK(rgb.size() == size_t(w) * h * 3);
+  BTF_CHECK(!alpha || alpha->size() == size_t(w) * h);
   std::string ext = std::filesystem::path(path).extension().string();
   for (auto& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
   if (ext != ".exr" && ext != ".png")
     throw Error(path + ": unsupported image type '" + ext +
                 "' (expected .exr, linear float, or .png, sRGB)");
   const bool hdr = ext == ".exr";
+  const int nc = hdr && alpha ? 4 : 3;  // PNG: the colour over black, no alpha
   // Images are stored bottom row first in memory (v up); files are top row first.
-  std::vector<float> px(rgb.size());
+  std::vector<float> px(size_t(w) * size_t(h) * size_t(nc));
   for (int j = 0; j < h; ++j) {
     const int src = flipY ? h - 1 - j : j;
-    for (int i = 0; i < w * 3; ++i) {
-      float v = rgb[size_t(src) * w * 3 + i];
-      if (!std::isfinite(v)) v = 0;
-      px[size_t(j) * w * 3 + i] = hdr ? v : linearToSrgb(v * scale);
+    for (int i = 0; i < w; ++i) {
+      const size_t sp = size_t(src) * size_t(w) + size_t(i), dp = size_t(j) * size_t(w) + size_t(i);
+      for (int c = 0; c < 3; ++c) {
+        float v = rgb[sp * 3 + size_t(c)];
+        if (!std::isfinite(v)) v = 0;
+        px[dp * size_t(nc) + size_t(c)] = hdr ? v : linearToSrgb(v * scale);
+      }
+      if (nc == 4) {
+        const float a = (*alpha)[sp];
+        px[dp * 4 + 3] = std::isfinite(a) ? std::clamp(a, 0.f, 1.f) : 0.f;
+      }
     }
   }
   const std::filesystem::path parent = std::filesystem::path(path).parent_path();
@@ -37,7 +52,7 @@ void writeRgbImage(const std::string& path, int w, int h, const std::vector<floa
   const std::string tmp = path + ".tmp" + ext;  // keep the extension so OIIO picks the format
   auto out = OIIO::ImageOutput::create(path);
   if (!out) throw Error(path + ": cannot write images of this type (" + OIIO::geterror() + ")");
-  OIIO::ImageSpec spec(w, h, 3, hdr ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::UINT8);
+  OIIO::ImageSpec spec(w, h, nc, hdr ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::UINT8);
   if (hdr) {
     spec.format = OIIO::TypeDesc::FLOAT;
     spec.attribute("oiio:ColorSpace", "Linear");
@@ -50,10 +65,17 @@ void writeRgbImage(const std::string& path, int w, int h, const std::vector<floa
   std::filesystem::rename(tmp, path);
 }
 
-std::vector<float> readRgbImage(const std::string& path, int* w, int* h) {
+std::vector<float> readRgbImage(const std::string& path, int* w, int* h,
+                                std::vector<float>* alpha) {
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw Error(path + ": cannot read image (" + OIIO::geterror() + ")");
   const auto& spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.width > 65536 ||
+      spec.height > 65536 || spec.nchannels > 64 ||
+      uint64_t(spec.width) * uint64_t(spec.height) * uint64_t(spec.nchannels) > (uint64_t(1) << 30))
+    throw Error(path + ": refusing an image of " + std::to_string(spec.width) + "x" +
+                std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
+                " channels (at most 65536 on a side, 2^30 values)");
   std::vector<float> all(size_t(spec.width) * spec.height * spec.nchannels);
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))
     throw Error(path + ": cannot read image (" + in->geterror() + ")");
@@ -63,6 +85,13 @@ std::vector<float> readRgbImage(const std::string& path, int* w, int* h) {
   for (size_t p = 0; p < size_t(*w) * *h; ++p)
     for (int c = 0; c < 3; ++c)
       rgb[p * 3 + c] = all[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
+  if (alpha) {
+    alpha->assign(size_t(*w) * *h, 1.0f);
+    if (spec.alpha_channel >= 0 || spec.nchannels == 4) {
+      const int a = spec.alpha_channel >= 0 ? spec.alpha_channel : 3;
+      for (size_t p = 0; p < alpha->size(); ++p) (*alpha)[p] = all[p * spec.nchannels + size_t(a)];
+    }
+  }
   return rgb;
 }
 

@@ -16,8 +16,15 @@ using ImageMetadata = std::vector<std::pair<std::string, std::string>>;
 /// is refused with the path. `scale` multiplies values for PNG only. Non-finite values → 0.
 void writeRgbImage(const std::string& path, int width, int height, const std::vector<float>& rgb,
                    float scale = 1.0f, bool flipY = true, const ImageMetadata& metadata = {});
-/// Reads an image as RGB float (grey expanded); for tests and inspection.
-std::vector<float> readRgbImage(const std::string& path, int* width, int* height);
+/// Same with a coverage (alpha) channel: EXR only (RGBA); PNG ignores it.
+void writeRgbaImage(const std::string& path, int width, int height, const std::vector<float>& rgb,
+                    const std::vector<float>* alpha, float scale = 1.0f, bool flipY = true,
+                    const ImageMetadata& metadata = {});
+/// Reads an image as RGB float (grey expanded), top row first; `alpha`, when given, receives
+/// the alpha channel (1 where the file has none). Images past 65536 on a side or 2^30 values
+/// are refused before reading.
+std::vector<float> readRgbImage(const std::string& path, int* width, int* height,
+                                std::vector<float>* alpha = nullptr);
 /// sRGB transfer curve of a linear value in [0, 1].
 float linearToSrgb(float v);
 

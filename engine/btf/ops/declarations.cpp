@@ -283,6 +283,42 @@ std::vector<CommandDecl> build() {
     cs.push_back(c);
   }
   {
+    CommandDecl c{"render",
+                  "render a BTF on an object: flat, mapped (silhouettes through the visibility "
+                  "map) or exact (the micro-geometry itself, path traced)",
+                  {},
+                  {"input"},
+                  {}};
+    c.options = {
+        path("input", "BTF (.btf or .cbtf); a scene (.json) renders --mode exact only"),
+        path("output",
+             "image: .exr (linear RGB + coverage alpha) or .png (sRGB); --mode all: a .png "
+             "side by side (exact | mapped | flat | |mapped - exact|) and STEM.MODE.exr"),
+        en("mode", "mapped", {"flat", "mapped", "exact", "all"}, "what to render"),
+        str("object", "sphere", "plane, sphere, cylinder, section, hills, vase, cushion or chair"),
+        in("level", 3, 0, 6, "refinement levels of the cage objects (OpenSubdiv)"),
+        str("size", "256", "image size: N or WxH pixels"),
+        in("spp", 4, 1, 65536, "samples per pixel"),
+        str("camera", "35,-90", "θ,φ of the camera seen from the object (degrees)"),
+        en("projection", "ortho", {"ortho", "perspective"}, "camera projection"),
+        fl("fov", 35, 1, 170, "perspective: vertical field of view (degrees)"),
+        excl(fl("zoom", 1, 0, 1000, "magnification")),
+        str("light", "45,-30", "θ,φ toward the directional light (degrees)"),
+        fl("irradiance", 1, 0, 1e9, "light's irradiance on a surface facing it"),
+        excl(fl("tiling", 4, 0, 1e6, "tiles per unit of texture coordinates")),
+        excl(fl("relief_scale", 1, 0, 1000,
+                "multiplies the relief's height on the object (1 = the tile's own)")),
+        in("bounces", 0, 0, 256, "exact: reflections per path (0 = unbounded, Russian roulette)"),
+        in("seed", 1, 0, 1 << 30, "sample seed"),
+        fl("exposure", 1, 1e-6, 1e6, "PNG: multiplies the radiance before the sRGB curve"),
+        str("reference", "", "an exact render (.exr with coverage) to measure the error against"),
+        str("vmf", "",
+            "a raw store of the same scene that supplies the visibility map (a .cbtf "
+            "has none)"),
+        str("memory_budget", "8G", "memory budget (BTF values, exact triangles), e.g. 8G")};
+    cs.push_back(c);
+  }
+  {
     CommandDecl c{"info",
                   "print a BTF's header (raw or compressed) and verify every checksum",
                   {},

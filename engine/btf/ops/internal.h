@@ -44,6 +44,7 @@ void compare(const Call& c);
 void exportBtf(const Call& c);
 void info(const Call& c);
 void slice(const Call& c);
+void render(const Call& c);
 void study(const Call& c);
 
 /// A cluster job's figures (docs/cluster.md): per rank, texels computed or encoded and bytes

@@ -49,7 +49,9 @@ SimOptions simOptions(const Scene& scene, const Request& r);
 CodecSettings codecSettings(const Request& r, const std::string& codec);
 /// "64" → (64, 64); "64x32" → (64, 32). Throws btf::Error naming the text.
 void parseTexels(const std::string& s, int* nu, int* nv);
-/// "30,45" → (30, 45). Throws btf::Error naming `what` and the text.
-void parseAnglePair(const std::string& s, const std::string& what, double* theta, double* phi);
+/// "30,45" → (30, 45), θ in [0, 90) (a BTF direction) or, with maxTheta = 180, in [0, 180]
+/// (a camera or light around an object). Throws btf::Error naming `what` and the text.
+void parseAnglePair(const std::string& s, const std::string& what, double* theta, double* phi,
+                    double maxTheta = 90);
 
 }  // namespace btf::ops

@@ -72,14 +72,18 @@ void parseTexels(const std::string& s, int* nu, int* nv) {
   *nv = b;
 }
 
-void parseAnglePair(const std::string& s, const std::string& what, double* theta, double* phi) {
+void parseAnglePair(const std::string& s, const std::string& what, double* theta, double* phi,
+                    double maxTheta) {
   std::istringstream in(s);
   char comma = 0;
   std::string rest;
   if (!(in >> *theta >> comma >> *phi) || comma != ',' || (in >> rest))
     throw Error("invalid " + what + " '" + s + "': expected θ,φ in degrees, e.g. 30,45");
-  if (!std::isfinite(*theta) || !std::isfinite(*phi) || *theta < 0 || *theta >= 90)
-    throw Error("invalid " + what + " '" + s + "': θ must be in [0, 90) degrees");
+  const bool wide = maxTheta > 90;  // around an object: [0, 180]; a BTF direction: [0, 90)
+  if (!std::isfinite(*theta) || !std::isfinite(*phi) || *theta < 0 ||
+      (wide ? *theta > 180 : *theta >= 90))
+    throw Error("invalid " + what + " '" + s + "': θ must be in " +
+                (wide ? "[0, 180]" : "[0, 90)") + " degrees");
 }
 
 namespace {
@@ -224,6 +228,7 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
       if (n == "export") return detail::exportBtf(c);
       if (n == "info") return detail::info(c);
       if (n == "slice") return detail::slice(c);
+      if (n == "render") return detail::render(c);
       if (n == "study") return detail::study(c);
       throw Error("command '" + n + "' has no use case");
     });

@@ -127,6 +127,11 @@ TEST(CliConventions, EveryCommandTakesQuietAndJsonAndMatchesItsSchema) {
       {"export", "export " + d + "/t.cbtf --format ubo2014 -o " + d + "/t.dfmf"},
       {"slice", "slice " + d + "/b.cbtf --view 0,0 --light 30,0 -o " + d + "/v.png"},
       {"slice", "slice " + d + "/b.btf --texel avg --light 30,0 -o " + d + "/h.exr --size 16"},
+      {"render", "render " + d + "/b.btf -o " + d + "/r.png --mode all --size 16 --spp 1"},
+      {"render", "render " + d + "/b.btf -o " + d + "/r.exr --size 16 --spp 1 --reference " + d +
+                     "/r.exact.exr --object section"},
+      {"render", "render " + d + "/b.cbtf -o " + d + "/rc.exr --size 16 --spp 1 --vmf " + d +
+                     "/b.btf --projection perspective"},
       {"plan", "plan " + brick + " --texels 8 --dirs 4x8"},
       {"bench", "bench " + brick + " --texels 4 --dirs 2x4 --repeat 1 --shadows map"},
       {"brdf", "brdf " + brick + " --pair 30,0,30,180 --pair 10,0,0,0 --spp 4 --method direct"},

@@ -1,0 +1,188 @@
+// The object renderer of `btfsim render` (docs/render.md; thesis §4.3): one object under a
+// directional light, seen by an orthographic or perspective camera, in three modes —
+//  - flat:   the BTF looked up on the base surface (the viewer's old way, no silhouettes);
+//  - mapped: §4.3 — a shell of prisms extruded along the interpolated normals over the tile's
+//            height range; each ray is followed face to face through the shell, in object and
+//            texture space at once; on each prism's segment the visibility map (VMF) of the
+//            segment's texture-space direction, read where the segment's line crosses the
+//            reference plane, says whether the relief is hit; the light direction is the one
+//            found by tracing from the hit toward the light through the shell (out through a
+//            bottom face → shadow; the direction of the prism where it leaves otherwise), and a
+//            relief hit elsewhere on the object on the way out shadows it. A ray that leaves the
+//            shell without a hit is background: the silhouette;
+//  - exact:  the scene's micro-geometry itself mapped through the same prisms onto the object as
+//            real triangles (clipped at the base triangles' texture-space edges) and path traced
+//            with the scene's materials — the reference.
+// Texture ("tile") space: x = u·T·Lx, y = v·T·Lx (T tiles per uv unit, isotropic), h = the tile's
+// z; world height = h · k_v · relief scale, k_v the local world length of a tile unit at the
+// vertex (area-weighted over its triangles). Directions are taken in the orthonormal frame of
+// the point (interpolated normal, the tile's x axis projected), as the BTF was simulated.
+#pragma once
+#include <btf/core/math.h>
+#include <btf/core/parallel.h>
+#include <btf/core/progress.h>
+#include <btf/core/rng.h>
+#include <btf/geometry/mesh.h>
+#include <btf/render/mesh_tracer.h>
+#include <btf/render/objects.h>
+#include <btf/scene/material.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace btf {
+
+class Decoder;
+class DirectionSet;
+struct BtfInfo;
+
+struct RenderSettings {
+  int width = 256, height = 256;
+  int spp = 4;                         // samples per pixel (jittered)
+  double camTheta = 35, camPhi = -90;  // degrees: where the camera is, seen from the object
+  bool perspective = false;
+  double fovDeg = 35;                      // perspective: vertical field of view
+  double zoom = 1;                         // > 1 magnifies
+  double lightTheta = 45, lightPhi = -30;  // degrees: direction toward the light (world)
+  double irradiance = 1;                   // of the light on a surface facing it
+  double tiling = 4;                       // tiles per uv unit
+  double reliefScale = 1;                  // multiplies the relief's heights on the object
+  int bounces = 0;                         // exact: reflections per path (0 = unbounded, RR)
+  uint64_t seed = 1;
+};
+
+/// A rendered image: RGB radiance (linear), coverage (fraction of the pixel's samples that met
+/// the object), row 0 at the top.
+struct RenderImage {
+  std::string mode;
+  int width = 0, height = 0;
+  std::vector<float> rgb, alpha;
+  double seconds = 0;
+  uint64_t samples = 0, rays = 0;  // rays: every Embree query
+  uint64_t triangles = 0;          // what was traced: base, shell faces or exact triangles
+};
+
+/// The BTF values and visibility map the flat and mapped modes read, in tile units and
+/// tile-frame directions (z up). Raw stores are read whole into memory (every chunk checksum
+/// verified); compressed files decode per value.
+class BtfSampler {
+ public:
+  /// `vmfPath` (a raw store of the same scene) supplies the visibility map when `path` has none
+  /// (a .cbtf); "" = none. `flatTile`: the tile is flat, so a missing VMF is the plane z = 0.
+  BtfSampler(const std::string& path, const std::string& vmfPath, bool flatTile,
+             uint64_t memoryBudget, const CancelToken* cancel = nullptr);
+  ~BtfSampler();
+  const BtfInfo& info() const;
+  bool hasVmf() const { return m_hasVmf; }
+  /// aBRDF at tile position (x, y) (bilinear between texels, periodic), directions interpolated
+  /// on the set; wo, wi unit with z > 0.
+  Rgb eval(double x, double y, const DVec3& wo, const DVec3& wi) const;
+  /// The VMF at (x, y) (nearest texel) for direction w (interpolated): coverage in [0, 1] and
+  /// the height above the reference plane of the hit of the line through (x, y, 0) along −w.
+  void vmf(double x, double y, const DVec3& w, float* coverage, float* height) const;
+  uint64_t memoryBytes() const;
+
+ private:
+  std::unique_ptr<Decoder> m_dec;
+  std::shared_ptr<DirectionSet> m_dirs;
+  std::vector<float> m_data;  // raw: texel-major values
+  std::vector<float> m_vmf;   // nDirs × texels × 2
+  bool m_hasVmf = false, m_flat = false;
+  int m_nu = 1, m_nv = 1, m_n = 1;
+  double m_Lx = 1, m_Ly = 1;
+  Rgb value(int64_t texel, int view, int light) const;
+};
+
+/// The object, its tile space and its shell, shared by the three modes.
+class RenderScene {
+ public:
+  /// `zmin`, `zmax`: the tile's height range (tile units). Throws btf::Error when the object
+  /// has degenerate texture coordinates or when the shell would self-intersect (relief too tall
+  /// for the object's curvature), naming the numbers.
+  RenderScene(ObjectMesh object, double Lx, double Ly, double zmin, double zmax,
+              const RenderSettings& s);
+  ~RenderScene();
+  const ObjectMesh& object() const { return m_obj; }
+  double heightScale() const { return m_K; }   // world units per tile unit of height
+  double worldPerTile() const { return m_k; }  // world units per tile unit along the surface
+  size_t shellFaces() const { return m_faces.size(); }
+  size_t prisms() const { return m_prisms.size(); }
+
+  RenderImage renderFlat(const BtfSampler& btf, const CancelToken* cancel,
+                         ProgressReporter* progress) const;
+  RenderImage renderMapped(const BtfSampler& btf, const CancelToken* cancel,
+                           ProgressReporter* progress) const;
+  /// Builds the mapped micro-geometry (refused past maxTriangles) and path traces it.
+  RenderImage renderExact(const TileGeometry& tile, const std::vector<Material>& materials,
+                          uint64_t maxTriangles, const CancelToken* cancel,
+                          ProgressReporter* progress) const;
+  /// Triangles the exact mode would build (an estimate, before building).
+  uint64_t exactTriangleEstimate(const TileGeometry& tile) const;
+
+  struct Prism {
+    uint32_t w[3];                 // welded vertex ids
+    uint32_t tri;                  // base triangle
+    glm::dvec2 xy[3];              // tile-space corners
+    uint8_t open = 0;              // bit i: edge (w[i], w[i+1]) is on the object's boundary
+    int32_t nb[3] = {-1, -1, -1};  // the prism across edge i
+  };
+  /// True when tile point x, given in prism p's coordinates, lies on the object: found by
+  /// walking across edges toward it (translating at seams), false past an open edge.
+  bool onObject(int p, glm::dvec2 x) const;
+  struct Face {
+    uint32_t v[3];                // shell vertex ids: 2·welded + level (0 bottom, 1 top)
+    int32_t prism[2] = {-1, -1};  // [0]: on the side the face normal points to
+    uint8_t kind = 0;             // 0 top, 1 bottom, 2 side
+    DVec3 n{0};
+  };
+
+ private:
+  struct Camera;
+  struct MarchHit {
+    DVec3 world{0}, tile{0}, crossing{0}, wo{0, 0, 1};
+    int prism = -1;
+  };
+  enum MarchResult { kMiss = 0, kRelief = 1, kAbsorbed = 2 };
+  /// Follows o + t d (t > tmin) through the shell; kRelief fills `hit`.
+  MarchResult march(const DVec3& o, const DVec3& d, double tmin, const BtfSampler& btf, Rng& rng,
+                    MarchHit* hit, uint64_t* rays) const;
+  /// The tile-frame light direction at a relief hit, false when the light is blocked.
+  bool lightAt(const MarchHit& hit, const BtfSampler& btf, Rng& rng, DVec3* wi,
+               uint64_t* rays) const;
+  bool segmentHit(int prism, const DVec3& tin, const DVec3& tout, const DVec3& pin,
+                  const DVec3& pout, const DVec3& d, const BtfSampler& btf, Rng& rng, bool* ahead,
+                  MarchHit* hit) const;
+  Camera camera() const;
+  /// A world direction in the tile frame of prism `prism` at tile point t (unit).
+  DVec3 tileDir(int prism, const DVec3& t, const DVec3& d) const;
+  DVec3 tileCoords(const Face& f, int prism, float bu, float bv) const;
+  void frameOf(uint32_t baseTri, const DVec3& n, DVec3* t, DVec3* b) const;
+  template <class Shade>
+  RenderImage renderWith(const std::string& mode, const CancelToken* cancel,
+                         ProgressReporter* progress, Shade&& shade) const;
+
+  ObjectMesh m_obj;
+  RenderSettings m_s;
+  double m_Lx, m_Ly, m_hlo, m_hhi, m_k, m_K, m_eps;
+  std::vector<Vec3> m_wpos, m_wnrm;  // welded vertices
+  std::vector<double> m_wK;          // per welded vertex: world height per tile unit
+  std::vector<Prism> m_prisms;
+  std::vector<Face> m_faces;
+  std::vector<DVec3> m_triT, m_triB;  // per base triangle: world tile axes (unit)
+  std::vector<uint32_t> m_baseKept;   // base triangles traced by flat (non-degenerate)
+  std::unique_ptr<MeshTracer> m_base, m_shell;
+  DVec3 m_light{0, 0, 1};
+};
+
+/// Relative RMSE of `img` against `ref` over the pixels either covers (RGB), and the coverage
+/// mismatch: pixels covered (alpha ≥ ½) in one and not the other, over the reference's covered
+/// pixels.
+struct ImageError {
+  double relRmse = 0, coverageMismatch = 0;
+  int64_t refPixels = 0, mismatchPixels = 0;
+  int64_t extraPixels = 0;  // of the mismatch: covered by the image, not by the reference
+};
+ImageError compareImages(const RenderImage& img, const RenderImage& ref);
+
+}  // namespace btf
