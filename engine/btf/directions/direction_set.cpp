@@ -135,12 +135,12 @@ int DirectionSet::nearest(const DVec3& w) const {
   return best;
 }
 
-std::vector<DirWeight> DirectionSet::interpolate(double theta, double phi) const {
-  std::vector<DirWeight> out;
+int DirectionSet::interpolate(double theta, double phi, DirWeight out[4]) const {
+  int n = 0;
   const size_t nr = m_rings.size();
   auto inRing = [&](const DirectionRing& r, double wRing) {
     if (r.count == 1) {
-      out.push_back({r.first, wRing});
+      out[n++] = {r.first, wRing};
       return;
     }
     const double step = 2 * kPi / r.count;
@@ -150,8 +150,8 @@ std::vector<DirWeight> DirectionSet::interpolate(double theta, double phi) const
     const double f = x - j0;
     j0 %= r.count;
     const int j1 = (j0 + 1) % r.count;
-    out.push_back({r.first + j0, wRing * (1 - f)});
-    if (f > 0) out.push_back({r.first + j1, wRing * f});
+    out[n++] = {r.first + j0, wRing * (1 - f)};
+    if (f > 0) out[n++] = {r.first + j1, wRing * f};
   };
   if (theta <= m_rings.front().theta || nr == 1) {
     inRing(m_rings.front(), 1);
@@ -164,7 +164,13 @@ std::vector<DirWeight> DirectionSet::interpolate(double theta, double phi) const
     inRing(m_rings[r], 1 - f);
     if (f > 0) inRing(m_rings[r + 1], f);
   }
-  return out;
+  return n;
+}
+
+std::vector<DirWeight> DirectionSet::interpolate(double theta, double phi) const {
+  DirWeight w[4];
+  const int n = interpolate(theta, phi, w);
+  return std::vector<DirWeight>(w, w + n);
 }
 
 }  // namespace btf

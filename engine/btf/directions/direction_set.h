@@ -61,6 +61,8 @@ class DirectionSet {
   /// between the two bracketing rings, linear in φ inside each ring (wrapping), clamped beyond
   /// the first and last ring. On a grid this is bilinear interpolation on the θ×φ cells.
   std::vector<DirWeight> interpolate(double theta, double phi) const;
+  /// The same into `out` without allocating (renderers call it per sample); returns the count.
+  int interpolate(double theta, double phi, DirWeight out[4]) const;
 
  private:
   void finish(bool gridCells);

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <mutex>
 
@@ -35,9 +36,9 @@ DVec3 fromAngles(double thetaDeg, double phiDeg) {
   return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
 }
 
-std::vector<DirWeight> interp(const DirectionSet& dirs, const DVec3& w) {
+int interp(const DirectionSet& dirs, const DVec3& w, DirWeight out[4]) {
   const double z = std::clamp(w.z, -1.0, 1.0);
-  return dirs.interpolate(std::acos(z), std::atan2(w.y, w.x));
+  return dirs.interpolate(std::acos(z), std::atan2(w.y, w.x), out);
 }
 
 int64_t wrapIndex(double f, int n) {
@@ -127,7 +128,8 @@ Rgb BtfSampler::value(int64_t texel, int view, int light) const {
 }
 
 Rgb BtfSampler::eval(double x, double y, const DVec3& wo, const DVec3& wi) const {
-  const auto wv = interp(*m_dirs, wo), wl = interp(*m_dirs, wi);
+  DirWeight wv[4], wl[4];
+  const int nv = interp(*m_dirs, wo, wv), nl = interp(*m_dirs, wi, wl);
   const double fx = x / m_Lx * m_nu - 0.5, fy = y / m_Ly * m_nv - 0.5;
   const double x0 = std::floor(fx), y0 = std::floor(fy);
   const double ax = fx - x0, ay = fy - y0;
@@ -152,7 +154,10 @@ void BtfSampler::vmf(double x, double y, const DVec3& w, float* coverage, float*
       wrapIndex(x / m_Lx * m_nu, m_nu) + int64_t(m_nu) * wrapIndex(y / m_Ly * m_nv, m_nv);
   const int64_t texels = int64_t(m_nu) * m_nv;
   double cov = 0, hs = 0;
-  for (const auto& d : interp(*m_dirs, w)) {
+  DirWeight ws[4];
+  const int n = interp(*m_dirs, w, ws);
+  for (int k = 0; k < n; ++k) {
+    const DirWeight& d = ws[k];
     const float* p = &m_vmf[size_t((int64_t(d.index) * texels + t) * 2)];
     const double c = std::clamp(double(p[0]), 0.0, 1.0);
     cov += d.weight * c;
@@ -295,10 +300,12 @@ RenderScene::RenderScene(ObjectMesh object, double Lx, double Ly, double zmin, d
     return uint32_t(m_faces.size() - 1);
   };
   for (int32_t pi = 0; pi < int32_t(m_prisms.size()); ++pi) {
-    const Prism& p = m_prisms[size_t(pi)];
+    Prism& p = m_prisms[size_t(pi)];
     const uint32_t a = p.w[0], b = p.w[1], c = p.w[2];
-    attached[addFace(2 * a + 1, 2 * b + 1, 2 * c + 1, 0)].push_back(pi);
-    attached[addFace(2 * a, 2 * b, 2 * c, 1)].push_back(pi);
+    p.face[0] = addFace(2 * a + 1, 2 * b + 1, 2 * c + 1, 0);
+    p.face[1] = addFace(2 * a, 2 * b, 2 * c, 1);
+    attached[p.face[0]].push_back(pi);
+    attached[p.face[1]].push_back(pi);
     for (int i = 0; i < 3; ++i) {
       const uint32_t u = p.w[i], v = p.w[(i + 1) % 3];
       const auto key = std::make_pair(std::min(u, v), std::max(u, v));
@@ -308,6 +315,7 @@ RenderScene::RenderScene(ObjectMesh object, double Lx, double Ly, double zmin, d
         addFace(2 * u, 2 * v + 1, 2 * u + 1, 2);
         it = edges.emplace(key, f0).first;
       }
+      p.face[2 + 2 * i] = it->second, p.face[3 + 2 * i] = it->second + 1;
       for (uint32_t f = it->second; f < it->second + 2; ++f) {
         if (attached[f].size() >= 2)
           throw Error(
@@ -344,6 +352,7 @@ RenderScene::RenderScene(ObjectMesh object, double Lx, double Ly, double zmin, d
       f.prism[side] = pi;
     }
   }
+  m_sv.assign(sv.begin(), sv.end());
   std::vector<glm::uvec3> ft(m_faces.size());
   for (size_t k = 0; k < m_faces.size(); ++k)
     ft[k] = {m_faces[k].v[0], m_faces[k].v[1], m_faces[k].v[2]};
@@ -576,6 +585,35 @@ bool RenderScene::segmentHit(int prism, const DVec3& tin, const DVec3& tout, con
   return true;
 }
 
+bool RenderScene::nextFace(int prism, const DVec3& o, const DVec3& d, double tmin,
+                           MeshHit* h) const {
+  const Prism& P = m_prisms[size_t(prism)];
+  constexpr double kEdge = 1e-9;  // a hair of overlap on the edges: no leak between triangles
+  double best = std::numeric_limits<double>::infinity();
+  for (uint32_t fi : P.face) {
+    const Face& f = m_faces[fi];
+    const DVec3& v0 = m_sv[f.v[0]];
+    const DVec3 e1 = m_sv[f.v[1]] - v0, e2 = m_sv[f.v[2]] - v0;
+    const DVec3 pv = glm::cross(d, e2);
+    const double det = glm::dot(e1, pv);
+    if (!(std::abs(det) > 0)) continue;
+    const double inv = 1 / det;
+    const DVec3 tv = o - v0;
+    const double u = glm::dot(tv, pv) * inv;
+    if (u < -kEdge || u > 1 + kEdge) continue;
+    const DVec3 qv = glm::cross(tv, e1);
+    const double v = glm::dot(d, qv) * inv;
+    if (v < -kEdge || u + v > 1 + kEdge) continue;
+    const double t = glm::dot(e2, qv) * inv;
+    if (t > tmin && t < best) {
+      best = t;
+      h->prim = fi, h->t = t;
+      h->u = float(std::clamp(u, 0.0, 1.0)), h->v = float(std::clamp(v, 0.0, 1.0 - h->u));
+    }
+  }
+  return std::isfinite(best);
+}
+
 RenderScene::MarchResult RenderScene::march(const DVec3& o, const DVec3& d, double tmin,
                                             const BtfSampler& btf, Rng& rng, MarchHit* hit,
                                             uint64_t* rays) const {
@@ -584,9 +622,12 @@ RenderScene::MarchResult RenderScene::march(const DVec3& o, const DVec3& d, doub
   bool ahead = false;
   DVec3 tin(0), pin(0);
   for (int step = 0; step < 1 << 16; ++step) {
-    const MeshHit h = m_shell->intersect(o, d, tnear);
-    ++*rays;
-    if (!h.hit()) return kMiss;
+    MeshHit h;
+    if (cur < 0 || !nextFace(cur, o, d, tnear, &h)) {
+      h = m_shell->intersect(o, d, tnear);
+      ++*rays;
+      if (!h.hit()) return kMiss;
+    }
     const Face& f = m_faces[h.prim];
     const bool intoFront = glm::dot(d, f.n) > 0;
     const int from = f.prism[intoFront ? 1 : 0], to = f.prism[intoFront ? 0 : 1];
@@ -618,8 +659,11 @@ bool RenderScene::lightAt(const MarchHit& hit, const BtfSampler& btf, Rng& rng, 
   int cur = hit.prism;
   double tnear = m_eps;
   for (int step = 0; step < 1 << 16; ++step) {
-    const MeshHit h = m_shell->intersect(o, L, tnear);
-    ++*rays;
+    MeshHit h;
+    if (!nextFace(cur, o, L, tnear, &h)) {
+      h = m_shell->intersect(o, L, tnear);
+      ++*rays;
+    }
     if (!h.hit()) {
       // Only when the hit point was placed a hair outside the shell (it is interpolated along
       // the camera's segment): the light leaves from the hit's own prism.
