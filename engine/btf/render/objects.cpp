@@ -83,6 +83,26 @@ ObjectMesh cage(const std::string& name, int level) {
         }
     m.tri.push_back(q);
   }
+  // Where the cylindrical map degenerates (caps and near-horizontal faces: its uv area all but
+  // vanishes), the triangle's vertices get their own copies mapped by a planar projection from
+  // above (same scale): a seam there, but a texture map on every triangle.
+  const size_t nTri = m.tri.size();
+  for (size_t k = 0; k < nTri; ++k) {
+    glm::uvec3& q = m.tri[k];
+    const Vec3 a = m.pos[q.x], b = m.pos[q.y], c = m.pos[q.z];
+    const Vec3 fn = glm::cross(b - a, c - a);
+    const float aw = 0.5f * glm::length(fn);
+    const glm::vec2 e1 = m.uv[q.y] - m.uv[q.x], e2 = m.uv[q.z] - m.uv[q.x];
+    const float at = 0.5f * std::abs(e1.x * e2.y - e1.y * e2.x) * (2 * kPiF * meanR) *
+                     (2 * kPiF * meanR);
+    if (!(aw > 0) || at > 0.25f * aw) continue;
+    for (int i = 0; i < 3; ++i) {
+      m.pos.push_back(m.pos[q[i]]);
+      m.nrm.push_back(m.nrm[q[i]]);
+      m.uv.push_back({m.pos[q[i]].x / (2 * kPiF * meanR), m.pos[q[i]].y / (2 * kPiF * meanR)});
+      q[i] = uint32_t(m.pos.size() - 1);
+    }
+  }
   finish(m);
   return m;
 }

@@ -839,6 +839,7 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
                       poly.swap(next);
                     }
                     if (poly.size() < 3) continue;
+
                     const uint32_t first = uint32_t(out.pos.size());
                     for (const ClipVertex& v : poly) {
                       const glm::dvec2 x(v.p.x, v.p.y);
@@ -867,6 +868,7 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
                       out.tri.push_back(tr);
                       out.mat.push_back(tile.triMaterial.empty() ? 0 : tile.triMaterial[t]);
                       out.base.push_back(P.tri);
+
                     }
                   }
             }
@@ -882,6 +884,7 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
     for (const auto& t : p.tri) X.tri.push_back(t + glm::uvec3(off));
     X.mat.insert(X.mat.end(), p.mat.begin(), p.mat.end());
     X.base.insert(X.base.end(), p.base.begin(), p.base.end());
+
     ExactMesh().pos.swap(p.pos);
   }
   if (X.tri.empty()) throw Error("the exact object has no triangles (is the tile empty?)");
@@ -917,6 +920,10 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
           const float w0 = 1 - h.u - h.v;
           Vec3 n = glm::normalize(w0 * X.nrm[tr.x] + h.u * X.nrm[tr.y] + h.v * X.nrm[tr.z]);
           const Vec3 toViewer = -Vec3(dir);
+          // The relief is on the object's front: the back of a micro surface (by its outward
+          // vertex normals: the ground sheet or a brick's wall seen from inside an open object)
+          // is the object's underside, black as in the mapped and flat modes; it absorbs paths.
+          if (glm::dot(glm::dot(ng, n) >= 0 ? ng : -ng, toViewer) < 0) break;
           if (glm::dot(ng, toViewer) < 0) ng = -ng, n = -n;
           const DVec3 p = org + dir * h.t;
           const Material& mat = materials[X.mat[h.prim]];
