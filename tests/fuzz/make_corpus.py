@@ -241,6 +241,27 @@ def images(btfsim, tmp):
     image("regressions", "empty.exr", "exr", b"")
 
 
+# ------------------------------------------------------------------------------ render references
+def reference(kind, name, ext, data):
+    put(kind, "reference", name, bytes([{"exr": 0, "png": 1}[ext]]) + data)
+
+
+def references(btfsim, tmp):
+    # An exact render's EXR (RGB + coverage alpha) of the flat tile, and an RGB PNG.
+    exr = os.path.join(tmp, "exact.exr")
+    subprocess.run([btfsim, "render", os.path.join(tmp, "flat.btf"), "--mode", "exact",
+                    "--object", "sphere", "--size", "8", "--spp", "1", "-o", exr, "-q"],
+                   check=True)
+    with open(exr, "rb") as f:
+        reference("corpus", "exact8.exr", "exr", f.read())
+    reference("corpus", "rgb2.png", "png", png(2, 2, [bytes(range(6)), bytes(range(6, 12))], 8, 2))
+    reference("regressions", "png_100000x100000.png", "png", png(100000, 100000, [b"\x00"]))
+    reference("regressions", "png_truncated.png", "png", png(4, 4, [b"\x00" * 4] * 4)[:40])
+    reference("regressions", "empty.exr", "exr", b"")
+    with open(exr, "rb") as f:
+        reference("regressions", "exr_truncated.exr", "exr", f.read()[:300])
+
+
 # ------------------------------------------------------------------------------ BTFs
 def split(path):
     with open(path, "rb") as f:
@@ -390,13 +411,14 @@ def main():
                 if not f.startswith("found_"):
                     os.remove(os.path.join(HERE, kind, t, f))
     for kind in ("corpus", "regressions"):
-        for t in ("scene", "mesh", "image", "btf", "cbtf", "pairs", "study"):
+        for t in ("scene", "mesh", "image", "btf", "cbtf", "pairs", "study", "reference"):
             os.makedirs(os.path.join(HERE, kind, t), exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         scenes()
         meshes()
         btfs(btfsim, tmp)
         images(btfsim, tmp)
+        references(btfsim, tmp)
         pairs()
         studies()
 

@@ -5,7 +5,7 @@
 #include <btf/core/input_file.h>
 #include <btf/core/rng.h>
 #include <btf/geometry/builders.h>
-#include <btf/io/exr_check.h>
+#include <btf/io/image_io.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -101,36 +101,6 @@ struct GreyImage {
   }
 };
 
-/// Points fd 2 at a temporary file for its lifetime (one at a time in the process).
-class StderrCapture {
- public:
-  StderrCapture() : m_lock(mutex()) {
-    std::fflush(stderr);
-    m_saved = ::dup(2);
-    m_tmp = std::tmpfile();
-    if (m_saved >= 0 && m_tmp) ::dup2(::fileno(m_tmp), 2);
-  }
-  ~StderrCapture() {
-    std::fflush(stderr);
-    if (m_saved >= 0) {
-      ::dup2(m_saved, 2);
-      ::close(m_saved);
-    }
-    if (m_tmp) std::fclose(m_tmp);
-  }
-  StderrCapture(const StderrCapture&) = delete;
-  StderrCapture& operator=(const StderrCapture&) = delete;
-
- private:
-  static std::mutex& mutex() {
-    static std::mutex m;
-    return m;
-  }
-  std::lock_guard<std::mutex> m_lock;
-  int m_saved = -1;
-  std::FILE* m_tmp = nullptr;
-};
-
 GreyImage readGrey(const std::string& path, uint64_t maxPixels) {
   GreyImage g;
   g.px = readHeightImage(path, maxPixels, &g.w, &g.h);
@@ -141,75 +111,9 @@ GreyImage readGrey(const std::string& path, uint64_t maxPixels) {
 
 std::vector<float> readHeightImage(const std::string& path, uint64_t maxPixels, int* width,
                                    int* height) {
-  // Compressed formats hold many pixels per byte, so the file's size bounds nothing: the
-  // header's dimensions are checked against maxPixels before any pixel is decoded.
-  const uint64_t size = checkInputFile(path, "height image");
-  // The format is the extension's, and the file's first bytes must be that format's signature:
-  // OpenImageIO would otherwise hand a file its plugin refuses to every other format's reader.
-  struct Format {
-    const char* ext;
-    const char* plugin;
-    const char* name;
-  };
-  static const Format kFormats[] = {{".png", "png", "PNG"},          {".exr", "openexr", "OpenEXR"},
-                                    {".hdr", "hdr", "Radiance HDR"}, {".pgm", "pnm", "PNM"},
-                                    {".ppm", "pnm", "PNM"},          {".pnm", "pnm", "PNM"},
-                                    {".tif", "tiff", "TIFF"},        {".tiff", "tiff", "TIFF"},
-                                    {".jpg", "jpeg", "JPEG"},        {".jpeg", "jpeg", "JPEG"}};
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
-  const Format* fmt = nullptr;
-  for (const Format& f : kFormats)
-    if (ext == f.ext) fmt = &f;
-  if (!fmt)
-    throw Error(path + ": unsupported height image type '" + ext +
-                "' (PNG, OpenEXR, Radiance HDR, PNM, TIFF or JPEG)");
-  std::string head;
-  {
-    std::ifstream f(path, std::ios::binary);
-    head.assign(size_t(std::min<uint64_t>(size, uint64_t(16) << 20)), '\0');
-    f.read(head.data(), std::streamsize(head.size()));
-    head.resize(size_t(f.gcount()));
-  }
-  const std::string_view plugin = fmt->plugin;
-  const bool signed_ =
-      (plugin == "png" && head.rfind("\x89PNG\r\n\x1a\n", 0) == 0) ||
-      (plugin == "openexr" && head.rfind("\x76\x2f\x31\x01", 0) == 0) ||
-      (plugin == "hdr" && head.rfind("#?", 0) == 0) ||
-      (plugin == "pnm" && head.size() >= 2 && head[0] == 'P' &&
-       std::string_view("123456fF").find(head[1]) != std::string_view::npos) ||
-      (plugin == "tiff" && (head.rfind("II*", 0) == 0 || head.rfind("MM", 0) == 0)) ||
-      (plugin == "jpeg" && head.rfind("\xff\xd8\xff", 0) == 0);
-  if (!signed_)
-    throw Error(path + ": content does not match the " + ext + " extension (no " + fmt->name +
-                " signature in its first bytes)");
-  // OpenEXR sizes allocations from its header before reading a pixel: walked first.
-  if (plugin == "openexr") checkExrHeader(path, head, maxPixels);
-    // libpng and libjpeg print their own complaints on stderr before OpenImageIO reports them:
-    // that text is kept off the terminal while the image is read (the error we throw carries
-    // OpenImageIO's message), so a damaged image is one line like every other error.
-#ifndef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION  // the fuzzer's own reports must reach stderr
-  StderrCapture quiet;
-#endif
-  // The plugin by its name, opened alone (no other reader is tried).
-  auto in = OIIO::ImageInput::create(std::string(plugin));
-  OIIO::ImageSpec opened;
-  if (!in || !in->open(path, opened))
-    throw Error(path + ": cannot read height image (" +
-                oneLine(in ? in->geterror() : OIIO::geterror()) + ")");
-  const OIIO::ImageSpec& spec = in->spec();
-  const int64_t w = spec.width, h = spec.height, ch = spec.nchannels;
-  if (w <= 0 || h <= 0 || ch <= 0) throw Error(path + ": height image is empty");
-  if (spec.depth > 1) throw Error(path + ": height image is a volume (depth > 1)");
-  if (w > 65536 || h > 65536 || uint64_t(w) * uint64_t(h) > maxPixels)
-    throw Error(path + ": height image of " + std::to_string(w) + " × " + std::to_string(h) +
-                " pixels is larger than the " + std::to_string(maxPixels) +
-                " pixels the memory budget allows");
-  if (ch > 64) throw Error(path + ": height image has " + std::to_string(ch) + " channels");
+  int w = 0, h = 0, ch = 0;
   // One channel decoded: the first (grey, or red of a colour image).
-  std::vector<float> all(size_t(w) * size_t(h));
-  if (!in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, all.data()))
-    throw Error(path + ": cannot read height image (" + oneLine(in->geterror()) + ")");
+  const std::vector<float> all = readImageChecked(path, maxPixels, "height image", &w, &h, &ch, 1);
   std::vector<float> px(all.size());
   // Image row 0 is the top, mapped to y = Ly (v = 1).
   for (int64_t j = 0; j < h; ++j)
@@ -218,8 +122,8 @@ std::vector<float> readHeightImage(const std::string& path, uint64_t maxPixels, 
       if (!std::isfinite(v)) throw Error(path + ": non-finite pixel value in height image");
       px[size_t(j * w + i)] = v;
     }
-  *width = int(w);
-  *height = int(h);
+  *width = w;
+  *height = h;
   return px;
 }
 

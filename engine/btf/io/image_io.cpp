@@ -1,10 +1,17 @@
 #include <OpenImageIO/imageio.h>
 #include <btf/core/error.h>
+#include <btf/core/input_file.h>
+#include <btf/io/exr_check.h>
 #include <btf/io/image_io.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <string_view>
 
 namespace btf {
 
@@ -65,32 +72,130 @@ void writeRgbaImage(const std::string& path, int w, int h, const std::vector<flo
   std::filesystem::rename(tmp, path);
 }
 
+namespace {
+
+/// Points fd 2 at a temporary file for its lifetime (one at a time in the process).
+class StderrCapture {
+ public:
+  StderrCapture() : m_lock(mutex()) {
+    std::fflush(stderr);
+    m_saved = ::dup(2);
+    m_tmp = std::tmpfile();
+    if (m_saved >= 0 && m_tmp) ::dup2(::fileno(m_tmp), 2);
+  }
+  ~StderrCapture() {
+    std::fflush(stderr);
+    if (m_saved >= 0) {
+      ::dup2(m_saved, 2);
+      ::close(m_saved);
+    }
+    if (m_tmp) std::fclose(m_tmp);
+  }
+  StderrCapture(const StderrCapture&) = delete;
+  StderrCapture& operator=(const StderrCapture&) = delete;
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  std::lock_guard<std::mutex> m_lock;
+  int m_saved = -1;
+  std::FILE* m_tmp = nullptr;
+};
+
+}  // namespace
+
+std::vector<float> readImageChecked(const std::string& path, uint64_t maxPixels,
+                                    const std::string& what, int* width, int* height,
+                                    int* channels, int decode) {
+  // Compressed formats hold many pixels per byte, so the file's size bounds nothing: the
+  // header's dimensions are checked against maxPixels before any pixel is decoded.
+  const uint64_t size = checkInputFile(path, what);
+  // The format is the extension's, and the file's first bytes must be that format's signature:
+  // OpenImageIO would otherwise hand a file its plugin refuses to every other format's reader.
+  struct Format {
+    const char* ext;
+    const char* plugin;
+    const char* name;
+  };
+  static const Format kFormats[] = {{".png", "png", "PNG"},          {".exr", "openexr", "OpenEXR"},
+                                    {".hdr", "hdr", "Radiance HDR"}, {".pgm", "pnm", "PNM"},
+                                    {".ppm", "pnm", "PNM"},          {".pnm", "pnm", "PNM"},
+                                    {".tif", "tiff", "TIFF"},        {".tiff", "tiff", "TIFF"},
+                                    {".jpg", "jpeg", "JPEG"},        {".jpeg", "jpeg", "JPEG"}};
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+  const Format* fmt = nullptr;
+  for (const Format& f : kFormats)
+    if (ext == f.ext) fmt = &f;
+  if (!fmt)
+    throw Error(path + ": unsupported " + what + " type '" + ext +
+                "' (PNG, OpenEXR, Radiance HDR, PNM, TIFF or JPEG)");
+  std::string head;
+  {
+    std::ifstream f(path, std::ios::binary);
+    head.assign(size_t(std::min<uint64_t>(size, uint64_t(16) << 20)), '\0');
+    f.read(head.data(), std::streamsize(head.size()));
+    head.resize(size_t(f.gcount()));
+  }
+  const std::string_view plugin = fmt->plugin;
+  const bool signed_ =
+      (plugin == "png" && head.rfind("\x89PNG\r\n\x1a\n", 0) == 0) ||
+      (plugin == "openexr" && head.rfind("\x76\x2f\x31\x01", 0) == 0) ||
+      (plugin == "hdr" && head.rfind("#?", 0) == 0) ||
+      (plugin == "pnm" && head.size() >= 2 && head[0] == 'P' &&
+       std::string_view("123456fF").find(head[1]) != std::string_view::npos) ||
+      (plugin == "tiff" && (head.rfind("II*", 0) == 0 || head.rfind("MM", 0) == 0)) ||
+      (plugin == "jpeg" && head.rfind("\xff\xd8\xff", 0) == 0);
+  if (!signed_)
+    throw Error(path + ": content does not match the " + ext + " extension (no " + fmt->name +
+                " signature in its first bytes)");
+  // OpenEXR sizes allocations from its header before reading a pixel: walked first.
+  if (plugin == "openexr") checkExrHeader(path, head, maxPixels);
+    // libpng and libjpeg print their own complaints on stderr before OpenImageIO reports them:
+    // that text is kept off the terminal while the image is read (the error we throw carries
+    // OpenImageIO's message), so a damaged image is one line like every other error.
+#ifndef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION  // the fuzzer's own reports must reach stderr
+  StderrCapture quiet;
+#endif
+  // The plugin by its name, opened alone (no other reader is tried).
+  auto in = OIIO::ImageInput::create(std::string(plugin));
+  OIIO::ImageSpec opened;
+  if (!in || !in->open(path, opened))
+    throw Error(path + ": cannot read " + what + " (" +
+                oneLine(in ? in->geterror() : OIIO::geterror()) + ")");
+  const OIIO::ImageSpec& spec = in->spec();
+  const int64_t w = spec.width, h = spec.height, ch = spec.nchannels;
+  if (w <= 0 || h <= 0 || ch <= 0) throw Error(path + ": " + what + " is empty");
+  if (spec.depth > 1) throw Error(path + ": " + what + " is a volume (depth > 1)");
+  if (w > 65536 || h > 65536 || uint64_t(w) * uint64_t(h) > maxPixels)
+    throw Error(path + ": " + what + " of " + std::to_string(w) + " × " + std::to_string(h) +
+                " pixels is larger than the " + std::to_string(maxPixels) +
+                " pixels the memory budget allows");
+  if (ch > 64) throw Error(path + ": " + what + " has " + std::to_string(ch) + " channels");
+  const int n = decode > 0 ? int(std::min<int64_t>(decode, ch)) : int(ch);
+  std::vector<float> all(size_t(w) * size_t(h) * size_t(n));
+  if (!in->read_image(0, 0, 0, n, OIIO::TypeDesc::FLOAT, all.data()))
+    throw Error(path + ": cannot read " + what + " (" + oneLine(in->geterror()) + ")");
+  *width = int(w);
+  *height = int(h);
+  *channels = n;
+  return all;
+}
+
 std::vector<float> readRgbImage(const std::string& path, int* w, int* h,
                                 std::vector<float>* alpha) {
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) throw Error(path + ": cannot read image (" + OIIO::geterror() + ")");
-  const auto& spec = in->spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.width > 65536 ||
-      spec.height > 65536 || spec.nchannels > 64 ||
-      uint64_t(spec.width) * uint64_t(spec.height) * uint64_t(spec.nchannels) > (uint64_t(1) << 30))
-    throw Error(path + ": refusing an image of " + std::to_string(spec.width) + "x" +
-                std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
-                " channels (at most 65536 on a side, 2^30 values)");
-  std::vector<float> all(size_t(spec.width) * spec.height * spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))
-    throw Error(path + ": cannot read image (" + in->geterror() + ")");
-  *w = spec.width;
-  *h = spec.height;
-  std::vector<float> rgb(size_t(*w) * *h * 3);
-  for (size_t p = 0; p < size_t(*w) * *h; ++p)
-    for (int c = 0; c < 3; ++c)
-      rgb[p * 3 + c] = all[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
+  int nc = 0;
+  const std::vector<float> all =
+      readImageChecked(path, uint64_t(1) << 26, "image", w, h, &nc, alpha ? 4 : 3);
+  std::vector<float> rgb(size_t(*w) * size_t(*h) * 3);
+  for (size_t p = 0; p < size_t(*w) * size_t(*h); ++p)
+    for (int c = 0; c < 3; ++c) rgb[p * 3 + size_t(c)] = all[p * size_t(nc) + size_t(std::min(c, nc - 1))];
   if (alpha) {
-    alpha->assign(size_t(*w) * *h, 1.0f);
-    if (spec.alpha_channel >= 0 || spec.nchannels == 4) {
-      const int a = spec.alpha_channel >= 0 ? spec.alpha_channel : 3;
-      for (size_t p = 0; p < alpha->size(); ++p) (*alpha)[p] = all[p * spec.nchannels + size_t(a)];
-    }
+    alpha->assign(size_t(*w) * size_t(*h), 1.0f);
+    if (nc == 4 || nc == 2)  // RGBA, or grey + alpha
+      for (size_t p = 0; p < alpha->size(); ++p) (*alpha)[p] = all[p * size_t(nc) + size_t(nc - 1)];
   }
   return rgb;
 }

@@ -21,10 +21,18 @@ void writeRgbaImage(const std::string& path, int width, int height, const std::v
                     const std::vector<float>* alpha, float scale = 1.0f, bool flipY = true,
                     const ImageMetadata& metadata = {});
 /// Reads an image as RGB float (grey expanded), top row first; `alpha`, when given, receives
-/// the alpha channel (1 where the file has none). Images past 65536 on a side or 2^30 values
-/// are refused before reading.
+/// the alpha channel (1 where the file has none). Through readImageChecked, at most 2^26 pixels.
 std::vector<float> readRgbImage(const std::string& path, int* width, int* height,
                                 std::vector<float>* alpha = nullptr);
+/// Reads an image the careful way (docs/reliability.md): the extension must name a supported
+/// format and the file start with its signature; an OpenEXR header is walked before OpenImageIO
+/// allocates; the dimensions are checked against maxPixels (and 65536 a side) before a pixel is
+/// decoded; libpng's own complaints are kept off stderr; every error is one line naming the file
+/// and `what`. Decodes the first `decode` channels (0 = all; fewer when the file has fewer) into
+/// `channels`, top row first.
+std::vector<float> readImageChecked(const std::string& path, uint64_t maxPixels,
+                                    const std::string& what, int* width, int* height,
+                                    int* channels, int decode = 0);
 /// sRGB transfer curve of a linear value in [0, 1].
 float linearToSrgb(float v);
 

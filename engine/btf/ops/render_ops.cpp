@@ -164,6 +164,10 @@ void render(const Call& c) {
     int w = 0, h = 0;
     ref.rgb = readRgbImage(r.s("reference"), &w, &h, &ref.alpha);
     ref.width = w, ref.height = h;
+    // A damaged reference never puts a NaN into the report.
+    for (float& v : ref.rgb)
+      if (!std::isfinite(v)) v = 0;
+    for (float& a : ref.alpha) a = std::isfinite(a) ? std::clamp(a, 0.f, 1.f) : 0.f;
     if (w != s.width || h != s.height)
       throw Error(format("--reference: %s is %dx%d, the render is %dx%d", r.s("reference").c_str(),
                          w, h, s.width, s.height));

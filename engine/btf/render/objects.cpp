@@ -83,9 +83,10 @@ ObjectMesh cage(const std::string& name, int level) {
         }
     m.tri.push_back(q);
   }
-  // Where the cylindrical map degenerates (caps and near-horizontal faces: its uv area all but
-  // vanishes), the triangle's vertices get their own copies mapped by a planar projection from
-  // above (same scale): a seam there, but a texture map on every triangle.
+  // Where the cylindrical map degenerates (caps, faces in a plane through the axis: its uv area
+  // all but vanishes), the triangle's vertices get their own copies mapped by a planar
+  // projection along the face normal's largest axis (same scale): a seam there, but a texture
+  // map on every triangle.
   const size_t nTri = m.tri.size();
   for (size_t k = 0; k < nTri; ++k) {
     glm::uvec3& q = m.tri[k];
@@ -99,7 +100,11 @@ ObjectMesh cage(const std::string& name, int level) {
     for (int i = 0; i < 3; ++i) {
       m.pos.push_back(m.pos[q[i]]);
       m.nrm.push_back(m.nrm[q[i]]);
-      m.uv.push_back({m.pos[q[i]].x / (2 * kPiF * meanR), m.pos[q[i]].y / (2 * kPiF * meanR)});
+      const Vec3 p = m.pos[q[i]] / (2 * kPiF * meanR);
+      const Vec3 an = glm::abs(fn);
+      m.uv.push_back(an.z >= an.x && an.z >= an.y ? glm::vec2(p.x, p.y)
+                     : an.x >= an.y               ? glm::vec2(p.y, p.z)
+                                                  : glm::vec2(p.x, p.z));
       q[i] = uint32_t(m.pos.size() - 1);
     }
   }

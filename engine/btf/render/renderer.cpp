@@ -908,6 +908,16 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
         MeshHit h = tracer.intersect(o, d);
         ++*rays;
         if (!h.hit()) return false;
+        // A camera ray that reaches the relief layer through the shell's bottom comes from
+        // inside the object: what it meets (a brick's underside) is the object's underside,
+        // black as in the mapped mode.
+        const MeshHit sh = m_shell->intersect(o, d);
+        ++*rays;
+        if (sh.hit() && sh.t <= h.t) {
+          const Face& f = m_faces[sh.prim];
+          const int from = f.prism[glm::dot(d, f.n) > 0 ? 1 : 0];
+          if (f.kind == 1 && from < 0) return true;
+        }
         DVec3 dir = d, org = o;
         Rgb beta(1), sum(0);
         for (int bounce = 1;; ++bounce) {

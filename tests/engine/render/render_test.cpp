@@ -123,7 +123,9 @@ TEST(Render, FlatTileOnAPlaneIsTheSameInEveryModeAndHasNoSilhouette) {
     SCOPED_TRACE(img->mode);
     EXPECT_NEAR(meanOver(*img), expect, 2e-3 * expect);
     for (size_t p = 0; p < img->alpha.size(); ++p)
-      if (img->alpha[p] == 1.f) ASSERT_NEAR(img->rgb[p * 3], expect, 4e-3 * expect) << p;
+      if (img->alpha[p] == 1.f) {
+        ASSERT_NEAR(img->rgb[p * 3], expect, 4e-3 * expect) << p;
+      }
   }
   // No silhouettes: the same pixels are covered (edge pixels may differ by a sample).
   EXPECT_GT(covered(flat), 400);
