@@ -7,6 +7,7 @@
 #include <btf/core/input_file.h>
 #include <btf/core/sysinfo.h>
 #include <btf/ops/ops.h>
+#include <btf/render/objects.h>
 #include <btf/sim/simulator.h>
 #include <btf/sim/study.h>
 #include <imgui.h>
@@ -133,6 +134,58 @@ int App::startExport(const std::string& input, const std::string& format,
   auto job = opJob(req, nullptr);
   job->title = "export " + input + " as " + format + " → " + output;
   message("queued export → " + output);
+  return jobs.submit(std::move(job));
+}
+
+int App::startObjectRender(const std::string& mode, int spp, int size, const std::string& output) {
+  if (insp.compressed.empty())
+    throw Error("render on the CPU: open a compressed BTF first (Inspector, or a job)");
+  // The viewer's orbit camera and light (degrees; the light turns with the camera) in the
+  // renderer's terms: camera (90° − pitch, yaw), perspective 35°, the distance as a zoom.
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  const double radius = btf::makeObject(obj.shape).radius;
+  const double zoom = std::max(1e-3, 1.05 * radius / (std::sin(17.5 / kDeg) * obj.distance));
+  const int height = std::max(8, int(std::lround(size * 0.75)));
+  const std::string out = output.empty() ? form.output + "/objects_" + mode + ".png" : output;
+  ops::Request req("render");
+  req.set("input", insp.compressed).set("output", out).set("mode", mode);
+  req.set("object", obj.shape).set("tiling", double(obj.tiling));
+  req.set("relief_scale", double(obj.reliefScale)).set("spp", double(spp));
+  req.set("size", std::to_string(size) + "x" + std::to_string(height));
+  char angles[96];
+  std::snprintf(angles, sizeof angles, "%.6g,%.6g", 90 - obj.pitch * kDeg, obj.yaw * kDeg);
+  req.set("camera", angles);
+  std::snprintf(angles, sizeof angles, "%.6g,%.6g", double(obj.lightTheta),
+                double(obj.lightPhi) + obj.yaw * kDeg);
+  req.set("light", angles);
+  req.set("projection", "perspective").set("fov", 35.0).set("zoom", zoom);
+  req.set("exposure", double(obj.exposure));
+  if (!insp.reference.empty()) req.set("vmf", insp.reference);
+  req.set("threads", double(form.threads));
+  auto job = opJob(req, nullptr, [this, out](const ops::Report& rep) {
+    obj.cpuImagePath = out;
+    // One line per mode: time, and the error against the exact image when there is one.
+    std::string text;
+    for (const auto& im : rep.json.at("images")) {
+      char line[256];
+      std::snprintf(line, sizeof line, "%-6s %7.2f s", im["mode"].get<std::string>().c_str(),
+                    im["seconds"].get<double>());
+      text += line;
+      if (im.contains("error_vs_exact")) {
+        std::snprintf(line, sizeof line, "   vs exact: relative RMSE %.1f %%, coverage %.2f %%",
+                      100 * im["error_vs_exact"]["rel_rmse"].get<double>(),
+                      100 * im["error_vs_exact"]["coverage_mismatch"].get<double>());
+        text += line;
+      }
+      text += "\n";
+    }
+    obj.cpuText = text + "exact | mapped | flat | |mapped - exact| (magenta: coverage differs)";
+    obj.cpuDirty = true;
+    report()["object_render"] = rep.json;
+  });
+  job->title = "render " + insp.compressed + " on " + obj.shape + " (" + mode + ") → " + out;
+  job->estimate = "the CPU renderer (docs/render.md)";
+  message("queued CPU render → " + out);
   return jobs.submit(std::move(job));
 }
 

@@ -91,6 +91,8 @@ class App : public StudioActions {
   int startExport(const std::string& input, const std::string& format,
                   const std::string& output) override;
   void openCompressed(const std::string& path, const std::string& reference) override;
+  int startObjectRender(const std::string& mode, int spp, int size,
+                        const std::string& output = "") override;
   void compareInspector() override;
   /// Compresses the reference with every codec at the form's target ratio and compares each:
   /// one row per codec in the inspector's table. Returns the last job id.

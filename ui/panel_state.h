@@ -53,7 +53,7 @@ struct InspectorState {
 };
 
 struct ObjectState {
-  std::string shape = "sphere";  // plane | sphere | cylinder | vase | cushion | chair
+  std::string shape = "sphere";  // an object of btf/render/objects.h
   std::string loadedShape;
   gl::Mesh mesh;
   float yaw = 0.6f, pitch = 0.5f, distance = 3.2f;
@@ -72,6 +72,14 @@ struct ObjectState {
   int bands = 16;  // bands of rows per pass, sized from the last pass to ~20 ms a frame
   int band = -1;   // next band to render; -1 when the pass is complete
   double passMs = 0;
+  // The CPU renderer (btfsim render, docs/render.md) on the same view, as a background job:
+  // exact | mapped | flat side by side (or one mode), its image and its report's summary.
+  int cpuMode = 0;  // all, exact, mapped, flat
+  int cpuSpp = 4;
+  float reliefScale = 1;
+  std::string cpuImagePath, cpuText;
+  bool cpuDirty = false;
+  gl::Texture cpuImage;
 };
 
 struct TileViewState {

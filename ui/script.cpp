@@ -273,6 +273,16 @@ bool App::scriptStep() {
              waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the export");
            return std::nullopt;
          }},
+        {"render_objects",
+         [&]() -> std::optional<bool> {
+           const json& s = a["render_objects"];
+           if (s.contains("relief_scale")) obj.reliefScale = s["relief_scale"].get<float>();
+           m_lastJobId = startObjectRender(s.value("mode", "all"), s.value("spp", 4),
+                                           s.value("size", 256), s.value("output", ""));
+           if (a.value("wait", 0.0) > 0)
+             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the render");
+           return std::nullopt;
+         }},
         {"cancel",
          [&]() -> std::optional<bool> {
            auto j = jobs.find(m_lastJobId);

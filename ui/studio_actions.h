@@ -23,6 +23,12 @@ class StudioActions {
   virtual int startExport(const std::string& input, const std::string& format,
                           const std::string& output) = 0;
   virtual void openCompressed(const std::string& path, const std::string& reference) = 0;
+  /// `btfsim render` of the open compressed BTF on the Objects panel's object, view, light,
+  /// tiling and relief scale (mode all, exact, mapped or flat; `size` pixels wide), as a job; its
+  /// image and errors come back to the panel. The raw reference supplies the visibility map.
+  /// `output` (a .png) defaults to the job form's folder, objects_MODE.png.
+  virtual int startObjectRender(const std::string& mode, int spp, int size,
+                                const std::string& output = "") = 0;
   virtual void compareInspector() = 0;
   virtual int startCodecSweep(const std::string& reference) = 0;
   virtual void loadStudy(const std::string& dir) = 0;

@@ -143,6 +143,14 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
     a.push_back({{"frames", 3}});
     a.push_back({{"screenshot", (dir / (std::string("object_") + o + ".png")).string()}});
   }
+  // The same view on the CPU renderer: exact | mapped | flat, with the errors in the report.
+  a.push_back({{"object", "sphere"}});
+  a.push_back({{"render_objects",
+                {{"mode", "all"}, {"spp", 1}, {"size", 64}, {"output", out + "-objects.png"}}},
+               {"wait", 300}});
+  a.push_back({{"expect_job", {{"status", "done"}}}});
+  a.push_back({{"frames", 3}});
+  a.push_back({{"screenshot", (dir / "object_cpu.png").string()}});
   a.push_back({{"study", {{"dir", out + "-study"}}}, {"wait", 600}});
   a.push_back({{"expect_job", {{"status", "done"}}}});
   a.push_back({{"panel", "Study"}});
@@ -179,8 +187,17 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   EXPECT_EQ(g["samples"], 512);
   EXPECT_GT(g["peak"].get<double>(), 0.01);
   EXPECT_LE(g["max_rel_to_peak"].get<double>(), 2e-3) << g.dump();
+  const json ro = r.at("object_render");
+  ASSERT_EQ(ro["images"].size(), 3u) << ro.dump();
+  EXPECT_EQ(ro["object"], "sphere");
+  for (int k = 1; k < 3; ++k) {  // mapped and flat measured against the exact image
+    const double e = ro["images"][k]["error_vs_exact"]["rel_rmse"].get<double>();
+    EXPECT_TRUE(std::isfinite(e) && e < 1.0) << ro.dump();
+  }
+  for (const char* f : {"-objects.png", "-objects.exact.exr", "-objects.mapped.exr"})
+    EXPECT_TRUE(fs::exists(out + f)) << f;
   for (const char* s : {"inspector", "object_plane", "object_sphere", "object_vase",
-                        "object_cushion", "object_chair", "study", "jobs"})
+                        "object_cushion", "object_chair", "object_cpu", "study", "jobs"})
     expectNotBlank(dir / (std::string(s) + ".png"));
   std::cout << "GLSL vs CPU decoder: " << g.dump() << "\n";
 }

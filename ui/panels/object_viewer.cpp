@@ -5,8 +5,10 @@
 #include <btf/core/error.h>
 #include <btf/core/rng.h>
 #include <btf/directions/direction_set.h>
+#include <btf/io/image_io.h>
 #include <imgui.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <glm/glm.hpp>
@@ -212,6 +214,29 @@ void drawObjectViewer(const ObjectView& app) {
   ImGui::SameLine();
   ImGui::SetNextItemWidth(80);
   ImGui::SliderFloat("render scale", &o.renderScale, 0.25f, 1.0f, "%.2f");
+  // The CPU renderer on the same view (a job): mode, samples, relief scale.
+  ImGui::SetNextItemWidth(80);
+  ImGui::Combo("CPU mode", &o.cpuMode, "all\0exact\0mapped\0flat\0");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(80);
+  ImGui::SliderInt("CPU spp", &o.cpuSpp, 1, 64, "%d", ImGuiSliderFlags_Logarithmic);
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(90);
+  ImGui::SliderFloat("relief scale", &o.reliefScale, 0.25f, 4, "%.2f",
+                     ImGuiSliderFlags_Logarithmic);
+  ImGui::SameLine();
+  if (ImGui::Button("Render on CPU")) {
+    static const char* const kModes[] = {"all", "exact", "mapped", "flat"};
+    try {
+      app.act.startObjectRender(kModes[std::clamp(o.cpuMode, 0, 3)], o.cpuSpp, 256);
+    } catch (const std::exception& e) {
+      app.act.message(e.what(), true);
+    }
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "btfsim render on this view: exact | mapped | flat | difference "
+        "(docs/render.md)");
   if (!app.insp.cbtf) {
     ImGui::TextDisabled("Open a compressed BTF (Inspector, or Simulate + compress in Jobs).");
     ImGui::End();
@@ -235,8 +260,29 @@ void drawObjectViewer(const ObjectView& app) {
     ImGui::End();
     return;
   }
+  // The CPU render's image (uploaded once its job is done) takes the lower part of the panel.
+  if (o.cpuDirty) {
+    o.cpuDirty = false;
+    try {
+      int iw = 0, ih = 0;
+      const std::vector<float> px = readRgbImage(o.cpuImagePath, &iw, &ih);
+      std::vector<uint8_t> rgba(size_t(iw) * size_t(ih) * 4, 255);
+      for (size_t p = 0; p < size_t(iw) * size_t(ih); ++p)
+        for (int c = 0; c < 3; ++c)  // the PNG holds display values already
+          rgba[p * 4 + size_t(c)] =
+              uint8_t(std::lround(std::clamp(px[p * 3 + size_t(c)], 0.f, 1.f) * 255));
+      o.cpuImage.setRgba8(iw, ih, rgba.data(), false);
+    } catch (const std::exception& e) {
+      app.act.message(e.what(), true);
+    }
+  }
   const ImVec2 avail = ImGui::GetContentRegionAvail();
-  const float dispW = std::max(64.0f, avail.x), dispH = std::max(64.0f, avail.y - 4);
+  float cpuH = 0;
+  if (o.cpuImage.id() && o.cpuImage.width() > 0)
+    cpuH = std::min(avail.y * 0.45f,
+                    avail.x * float(o.cpuImage.height()) / float(o.cpuImage.width())) +
+           ImGui::GetTextLineHeightWithSpacing() * 4;
+  const float dispW = std::max(64.0f, avail.x), dispH = std::max(64.0f, avail.y - 4 - cpuH);
   const int w = std::max(32, int(dispW * o.renderScale)),
             h = std::max(32, int(dispH * o.renderScale));
   // The GPU decode is heavy on llvmpipe: render only when something changed.
@@ -304,6 +350,12 @@ void drawObjectViewer(const ObjectView& app) {
   }
   if (ImGui::IsItemHovered() && ImGui::GetIO().MouseWheel != 0)
     o.distance *= std::pow(0.9f, ImGui::GetIO().MouseWheel);
+  if (cpuH > 0) {
+    const float ih = cpuH - ImGui::GetTextLineHeightWithSpacing() * 4;
+    ImGui::Image(o.cpuImage.imguiId(),
+                 ImVec2(ih * float(o.cpuImage.width()) / float(o.cpuImage.height()), ih));
+    ImGui::TextUnformatted(o.cpuText.c_str());
+  }
   ImGui::End();
 }
 

@@ -107,8 +107,8 @@ class StderrCapture {
 }  // namespace
 
 std::vector<float> readImageChecked(const std::string& path, uint64_t maxPixels,
-                                    const std::string& what, int* width, int* height,
-                                    int* channels, int decode) {
+                                    const std::string& what, int* width, int* height, int* channels,
+                                    int decode) {
   // Compressed formats hold many pixels per byte, so the file's size bounds nothing: the
   // header's dimensions are checked against maxPixels before any pixel is decoded.
   const uint64_t size = checkInputFile(path, what);
@@ -191,7 +191,8 @@ std::vector<float> readRgbImage(const std::string& path, int* w, int* h,
       readImageChecked(path, uint64_t(1) << 26, "image", w, h, &nc, alpha ? 4 : 3);
   std::vector<float> rgb(size_t(*w) * size_t(*h) * 3);
   for (size_t p = 0; p < size_t(*w) * size_t(*h); ++p)
-    for (int c = 0; c < 3; ++c) rgb[p * 3 + size_t(c)] = all[p * size_t(nc) + size_t(std::min(c, nc - 1))];
+    for (int c = 0; c < 3; ++c)
+      rgb[p * 3 + size_t(c)] = all[p * size_t(nc) + size_t(std::min(c, nc - 1))];
   if (alpha) {
     alpha->assign(size_t(*w) * size_t(*h), 1.0f);
     if (nc == 4 || nc == 2)  // RGBA, or grey + alpha

@@ -31,8 +31,8 @@ std::vector<float> readRgbImage(const std::string& path, int* width, int* height
 /// and `what`. Decodes the first `decode` channels (0 = all; fewer when the file has fewer) into
 /// `channels`, top row first.
 std::vector<float> readImageChecked(const std::string& path, uint64_t maxPixels,
-                                    const std::string& what, int* width, int* height,
-                                    int* channels, int decode = 0);
+                                    const std::string& what, int* width, int* height, int* channels,
+                                    int decode = 0);
 /// sRGB transfer curve of a linear value in [0, 1].
 float linearToSrgb(float v);
 

@@ -94,8 +94,8 @@ ObjectMesh cage(const std::string& name, int level) {
     const Vec3 fn = glm::cross(b - a, c - a);
     const float aw = 0.5f * glm::length(fn);
     const glm::vec2 e1 = m.uv[q.y] - m.uv[q.x], e2 = m.uv[q.z] - m.uv[q.x];
-    const float at = 0.5f * std::abs(e1.x * e2.y - e1.y * e2.x) * (2 * kPiF * meanR) *
-                     (2 * kPiF * meanR);
+    const float at =
+        0.5f * std::abs(e1.x * e2.y - e1.y * e2.x) * (2 * kPiF * meanR) * (2 * kPiF * meanR);
     if (!(aw > 0) || at > 0.25f * aw) continue;
     for (int i = 0; i < 3; ++i) {
       m.pos.push_back(m.pos[q[i]]);

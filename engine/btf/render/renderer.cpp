@@ -868,7 +868,6 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
                       out.tri.push_back(tr);
                       out.mat.push_back(tile.triMaterial.empty() ? 0 : tile.triMaterial[t]);
                       out.base.push_back(P.tri);
-
                     }
                   }
             }

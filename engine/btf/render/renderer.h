@@ -126,7 +126,7 @@ class RenderScene {
     glm::dvec2 xy[3];              // tile-space corners
     uint8_t open = 0;              // bit i: edge (w[i], w[i+1]) is on the object's boundary
     int32_t nb[3] = {-1, -1, -1};  // the prism across edge i
-    uint32_t face[8] = {};          // top, bottom, then the two triangles of each side i
+    uint32_t face[8] = {};         // top, bottom, then the two triangles of each side i
   };
   /// True when tile point x, given in prism p's coordinates, lies on the object: found by
   /// walking across edges toward it (translating at seams), false past an open edge.
@@ -172,7 +172,7 @@ class RenderScene {
   double m_Lx, m_Ly, m_hlo, m_hhi, m_k, m_K, m_eps;
   std::vector<Vec3> m_wpos, m_wnrm;  // welded vertices
   std::vector<double> m_wK;          // per welded vertex: world height per tile unit
-  std::vector<DVec3> m_sv;  // shell vertices: 2·welded + level
+  std::vector<DVec3> m_sv;           // shell vertices: 2·welded + level
   std::vector<Prism> m_prisms;
   std::vector<Face> m_faces;
   std::vector<DVec3> m_triT, m_triB;  // per base triangle: world tile axes (unit)
