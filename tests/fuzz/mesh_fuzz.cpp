@@ -1,6 +1,6 @@
 // Mesh files (OBJ, PLY ascii/binary, OFF): the first byte picks the extension, the rest is the
-// file. Read as a mesh part (200 000-triangle bound) and, when that succeeds, as a one-level
-// Catmull-Clark cage.
+// file. Read as a mesh part (200 000-triangle bound) and, when that succeeds, as an object with
+// texture coordinates and as a one-level Catmull-Clark cage.
 #include <btf/core/error.h>
 #include <btf/geometry/builders.h>
 
@@ -39,6 +39,16 @@ void btfFuzzOne(const uint8_t* data, size_t size) {
   const std::string path = writeMesh(data, size);
   constexpr uint64_t kMaxTriangles = 200000;
   checkMesh(loadMeshFile(path, true, kMaxTriangles));
+  // As an object to render on (btfsim render --object FILE): its texture coordinates, when it
+  // has them (a mesh without is refused with its own message, a clean refusal too).
+  try {
+    std::vector<glm::vec2> uv;
+    const TriMesh m = loadMeshFileUv(path, &uv, kMaxTriangles);
+    checkMesh(m);
+    check(uv.size() == m.pos.size(), "texture coordinates and vertices differ in count");
+    for (const auto& t : uv) check(std::isfinite(t.x) && std::isfinite(t.y), "non-finite uv");
+  } catch (const Error&) {
+  }
   checkMesh(buildSubdivision(path, 1, "catmark", false, kMaxTriangles));
 }
 

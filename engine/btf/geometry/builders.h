@@ -31,6 +31,11 @@ constexpr uint64_t kNoTriangleBound = uint64_t(1) << 40;
 /// reads them).
 TriMesh loadMeshFile(const std::string& path, bool smooth,
                      uint64_t maxTriangles = kNoTriangleBound);
+/// A mesh file with texture coordinates (an object to render a BTF on): as loadMeshFile, smooth
+/// normals, vertices split where a face gives them other texture coordinates (seams); `uv` per
+/// vertex. Throws btf::Error naming the file when it has no texture coordinates.
+TriMesh loadMeshFileUv(const std::string& path, std::vector<glm::vec2>* uv,
+                       uint64_t maxTriangles = kNoTriangleBound);
 /// Subdivision surface of a control cage file, refined `levels` times by OpenSubdiv. Boundary
 /// vertices interpolate their edges; `sharpCorners` also pins the corners (the object cages).
 /// The refined size is checked against `maxTriangles` before refining.

@@ -14,8 +14,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <sstream>
+#include <tuple>
 
 namespace btf {
 
@@ -30,7 +32,7 @@ constexpr uint64_t kMaxMeshFileBytesPerTriangle = 16;
 /// lengths, indices, finite vertices, the triangle bound); then OpenMesh reads it, and its
 /// complaints (faces with repeated or invalid vertices) are captured and turned into one clear
 /// error, and faces it had to split off because they were non-manifold are reported too.
-PolyMesh readPoly(const std::string& path, uint64_t maxTriangles) {
+PolyMesh readPoly(const std::string& path, uint64_t maxTriangles, bool* hasUv = nullptr) {
   const uint64_t maxBytes =
       maxTriangles > UINT64_MAX / kMaxMeshFileBytesPerTriangle
           ? UINT64_MAX
@@ -46,6 +48,10 @@ PolyMesh readPoly(const std::string& path, uint64_t maxTriangles) {
   mesh.request_face_status();
   mesh.request_vertex_status();
   mesh.request_edge_status();
+  if (hasUv) {
+    mesh.request_vertex_texcoords2D();
+    mesh.request_halfedge_texcoords2D();
+  }
   // omerr() is a process-wide stream. It is connected once to a capture stream that lives as
   // long as the process: mostream::connect allocates a target that disconnect does not free, so
   // connecting per read leaked one per mesh (LeakSanitizer).
@@ -63,8 +69,13 @@ PolyMesh readPoly(const std::string& path, uint64_t maxTriangles) {
     std::lock_guard lock(ioMutex);
     capture->str("");
     OpenMesh::IO::Options opt;
+    if (hasUv)
+      opt += OpenMesh::IO::Options::VertexTexCoord, opt += OpenMesh::IO::Options::FaceTexCoord;
     ok = OpenMesh::IO::read_mesh(mesh, path, opt);
     msgs = capture->str();
+    if (hasUv)
+      *hasUv = opt.check(OpenMesh::IO::Options::FaceTexCoord) ||
+               opt.check(OpenMesh::IO::Options::VertexTexCoord);
   }
   if (!ok) throw Error(path + ": cannot read mesh (unsupported format or malformed file)");
   if (msgs.find("equal vertices") != std::string::npos)
@@ -118,6 +129,62 @@ TriMesh loadMeshFile(const std::string& path, bool smooth, uint64_t maxTriangles
   checkDegenerate(m, path);
   m.computeSmoothNormals();
   if (!smooth) m.makeFlat();
+  return m;
+}
+
+TriMesh loadMeshFileUv(const std::string& path, std::vector<glm::vec2>* uv, uint64_t maxTriangles) {
+  bool hasUv = false;
+  PolyMesh pm = readPoly(path, maxTriangles, &hasUv);
+  if (!hasUv)
+    throw Error(path +
+                ": the mesh has no texture coordinates (an OBJ's vt lines): a BTF is "
+                "mapped onto an object by them");
+  const bool perCorner = pm.has_halfedge_texcoords2D();
+  TriMesh src;
+  for (auto v : pm.vertices()) {
+    const auto p = pm.point(v);
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      throw Error(path + ": vertex " + std::to_string(v.idx()) +
+                  " has a non-finite coordinate (inf or nan)");
+    src.pos.push_back(Vec3(p[0], p[1], p[2]));
+  }
+  // Corners: (vertex, uv); a vertex with different uv in different faces (a seam) is split.
+  std::vector<std::pair<uint32_t, glm::vec2>> corners;
+  std::vector<std::vector<uint32_t>> faces;
+  for (auto f : pm.faces()) {
+    std::vector<uint32_t> ids;
+    for (auto h : pm.fh_range(f)) {
+      const auto v = pm.to_vertex_handle(h);
+      const auto t = perCorner ? pm.texcoord2D(h) : pm.texcoord2D(v);
+      if (!std::isfinite(t[0]) || !std::isfinite(t[1]))
+        throw Error(path + ": a texture coordinate of face " + std::to_string(f.idx()) +
+                    " is not finite");
+      corners.push_back({uint32_t(v.idx()), glm::vec2(t[0], t[1])});
+      ids.push_back(uint32_t(corners.size() - 1));
+    }
+    faces.push_back(ids);
+  }
+  for (const auto& ids : faces)
+    for (size_t k = 1; k + 1 < ids.size(); ++k)
+      src.tri.push_back({corners[ids[0]].first, corners[ids[k]].first, corners[ids[k + 1]].first});
+  checkDegenerate(src, path);
+  src.computeSmoothNormals();
+  std::map<std::tuple<uint32_t, float, float>, uint32_t> split;
+  TriMesh m;
+  uv->clear();
+  auto vertexOf = [&](uint32_t c) {
+    const auto& [v, t] = corners[c];
+    auto [it, fresh] = split.try_emplace({v, t.x, t.y}, uint32_t(m.pos.size()));
+    if (fresh) {
+      m.pos.push_back(src.pos[v]);
+      m.nrm.push_back(src.nrm[v]);
+      uv->push_back(t);
+    }
+    return it->second;
+  };
+  for (const auto& ids : faces)
+    for (size_t k = 1; k + 1 < ids.size(); ++k)
+      m.tri.push_back({vertexOf(ids[0]), vertexOf(ids[k]), vertexOf(ids[k + 1])});
   return m;
 }
 

@@ -295,7 +295,9 @@ std::vector<CommandDecl> build() {
              "image: .exr (linear RGB + coverage alpha) or .png (sRGB); --mode all: a .png "
              "side by side (exact | mapped | flat | |mapped - exact|) and STEM.MODE.exr"),
         en("mode", "mapped", {"flat", "mapped", "exact", "all"}, "what to render"),
-        str("object", "sphere", "plane, sphere, cylinder, section, hills, vase, cushion or chair"),
+        str("object", "sphere",
+            "plane, sphere, cylinder, section, hills, vase, cushion, chair, or a mesh file "
+            "(.obj, .ply, .off) with texture coordinates"),
         in("level", 3, 0, 6, "refinement levels of the cage objects (OpenSubdiv)"),
         str("size", "256", "image size: N or WxH pixels"),
         in("spp", 4, 1, 65536, "samples per pixel"),

@@ -3,6 +3,7 @@
 #include <btf/render/objects.h>
 
 #include <cmath>
+#include <filesystem>
 #include <functional>
 
 namespace btf {
@@ -165,8 +166,26 @@ ObjectMesh makeObject(const std::string& name, int level) {
     });
   for (const auto& n : objectNames())
     if (n == name) return cage(name, level);
+  const std::string ext = std::filesystem::path(name).extension().string();
+  if (ext == ".obj" || ext == ".OBJ" || ext == ".ply" || ext == ".off") {
+    // A user's mesh with its own texture coordinates, centred on the origin.
+    ObjectMesh m;
+    m.name = std::filesystem::path(name).filename().string();
+    const TriMesh t = loadMeshFileUv(name, &m.uv, uint64_t(1) << 24);
+    Vec3 lo(1e30f), hi(-1e30f);
+    for (const auto& p : t.pos) lo = glm::min(lo, p), hi = glm::max(hi, p);
+    const Vec3 c = 0.5f * (lo + hi);
+    for (size_t k = 0; k < t.pos.size(); ++k) {
+      m.pos.push_back(t.pos[k] - c);
+      m.nrm.push_back(glm::length(t.nrm[k]) > 0 ? glm::normalize(t.nrm[k]) : Vec3(0, 0, 1));
+    }
+    m.tri = t.tri;
+    finish(m);
+    return m;
+  }
   throw Error("unknown object '" + name +
-              "' (expected plane, sphere, cylinder, section, hills, vase, cushion or chair)");
+              "' (expected plane, sphere, cylinder, section, hills, vase, cushion, chair, or a "
+              "mesh file with texture coordinates: .obj, .ply, .off)");
 }
 
 }  // namespace btf

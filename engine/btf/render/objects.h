@@ -22,9 +22,10 @@ struct ObjectMesh {
   double worldPerUv() const;
 };
 
-/// "plane", "sphere", "cylinder", "section", "hills", or a cage name in resources/objects
-/// ("vase", "cushion", "chair"), `level` refinements for cages. Throws btf::Error for unknown
-/// names or a bad cage (file and line).
+/// "plane", "sphere", "cylinder", "section", "hills", a cage name in resources/objects
+/// ("vase", "cushion", "chair"; `level` refinements), or a mesh file (.obj, .ply, .off) with its
+/// own texture coordinates, centred on the origin. Throws btf::Error for unknown names, a bad
+/// file (its name and what is wrong) or a mesh without texture coordinates.
 ObjectMesh makeObject(const std::string& name, int level = 3);
 const std::vector<std::string>& objectNames();
 

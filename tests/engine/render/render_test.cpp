@@ -324,6 +324,13 @@ TEST(Render, BadInputGetsAClearMessage) {
   EXPECT_NE(render(flatBtf, "camera=30").find("--camera"), std::string::npos);
   // Nothing was written by the refused runs.
   EXPECT_FALSE(fs::exists(dir / "o.exr"));
+  // A mesh file without texture coordinates, and one with (resources/meshes/uv_patch.obj).
+  std::ofstream(dir / "nouv.obj") << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+  const std::string noUv = render(flatBtf, "object=" + (dir / "nouv.obj").string());
+  EXPECT_NE(noUv.find("nouv.obj: the mesh has no texture coordinates"), std::string::npos) << noUv;
+  EXPECT_EQ(render(flatBtf, "object=" + test::sourceDir() + "/resources/meshes/uv_patch.obj",
+                   "patch.exr"),
+            "");
   // An object whose texture map is degenerate on a triangle with an area.
   ObjectMesh m = makeObject("plane");
   for (auto& uv : m.uv) uv = {0.5f, 0.5f};
