@@ -307,6 +307,9 @@ std::vector<CommandDecl> build() {
         excl(fl("zoom", 1, 0, 1000, "magnification")),
         str("light", "45,-30", "θ,φ toward the directional light (degrees)"),
         fl("irradiance", 1, 0, 1e9, "light's irradiance on a surface facing it"),
+        fl("environment", 0, 0, 1e9,
+           "radiance of a constant sky all around (0 = none; flat and mapped ignore the "
+           "object's own occlusion of it)"),
         excl(fl("tiling", 4, 0, 1e6, "tiles per unit of texture coordinates")),
         excl(fl("relief_scale", 1, 0, 1000,
                 "multiplies the relief's height on the object (1 = the tile's own)")),

@@ -80,6 +80,7 @@ void render(const Call& c) {
   s.fovDeg = r.f("fov");
   s.zoom = r.f("zoom");
   s.irradiance = r.f("irradiance");
+  s.environment = r.f("environment");
   s.tiling = r.f("tiling");
   s.reliefScale = r.f("relief_scale");
   s.bounces = r.i("bounces");
@@ -112,6 +113,7 @@ void render(const Call& c) {
                         std::abs(tile.zmax) <= 1e-9f * float(std::max(tile.Lx, tile.Ly));
   if (needBtf) {
     btf = std::make_unique<BtfSampler>(input, r.s("vmf"), flatTile, budget, c.ctx.cancel);
+    if (s.environment > 0) btf->prepareAmbient(c.ctx.cancel);
     if ((mode == "mapped" || mode == "all") && !btf->hasVmf() && !flatTile)
       throw Error(input + " has no visibility map, and the mapped mode needs one for a relief " +
                   (isCompressedFile(input)
@@ -134,6 +136,8 @@ void render(const Call& c) {
   j["relief_scale"] = s.reliefScale;
   j["camera_theta_phi_deg"] = {s.camTheta, s.camPhi};
   j["light_theta_phi_deg"] = {s.lightTheta, s.lightPhi};
+  j["irradiance"] = s.irradiance;
+  j["environment"] = s.environment;
   j["projection"] = r.s("projection");
   j["world_per_tile_unit"] = rs.worldPerTile();
   j["shell"] = {{"prisms", rs.prisms()},

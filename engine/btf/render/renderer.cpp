@@ -115,7 +115,7 @@ const BtfInfo& BtfSampler::info() const {
 }
 
 uint64_t BtfSampler::memoryBytes() const {
-  return (m_data.size() + m_vmf.size()) * sizeof(float);
+  return (m_data.size() + m_vmf.size() + m_ambient.size()) * sizeof(float);
 }
 
 Rgb BtfSampler::value(int64_t texel, int view, int light) const {
@@ -139,8 +139,73 @@ Rgb BtfSampler::eval(double x, double y, const DVec3& wo, const DVec3& wi) const
       const double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
       if (w <= 0) continue;
       const int64_t t = wrapIndex(x0 + i, m_nu) + int64_t(m_nu) * wrapIndex(y0 + j, m_nv);
-      for (const auto& v : wv)
-        for (const auto& l : wl) acc += float(w * v.weight * l.weight) * value(t, v.index, l.index);
+      for (int a = 0; a < nv; ++a)
+        for (int b = 0; b < nl; ++b)
+          acc += float(w * wv[a].weight * wl[b].weight) * value(t, wv[a].index, wl[b].index);
+    }
+  return acc;
+}
+
+void BtfSampler::prepareAmbient(const CancelToken* cancel) {
+  if (!m_ambient.empty()) return;
+  const int64_t texels = int64_t(m_nu) * m_nv;
+  m_ambient.assign(size_t(texels) * size_t(m_n) * 3, 0.f);
+  // Each light direction weighs the cosine-weighted solid angle of its ring's band (edges
+  // halfway to the neighbouring rings, 0° and 90° at the ends) shared by the ring's count:
+  // π(sin²θhi − sin²θlo)/count — they sum to π, exactly the integral of a constant aBRDF.
+  std::vector<double> lw(static_cast<size_t>(m_n), 0.0);
+  const auto& rings = m_dirs->rings();
+  for (size_t k = 0; k < rings.size(); ++k) {
+    const double lo = k == 0 ? 0.0 : 0.5 * (rings[k - 1].theta + rings[k].theta);
+    const double hi = k + 1 == rings.size() ? kPi / 2 : 0.5 * (rings[k].theta + rings[k + 1].theta);
+    const double w =
+        kPi * (std::sin(hi) * std::sin(hi) - std::sin(lo) * std::sin(lo)) / double(rings[k].count);
+    for (int j = 0; j < rings[k].count; ++j) lw[size_t(rings[k].first + j)] = w;
+  }
+  parallelForChunks(
+      texels, 16,
+      [&](int64_t t0, int64_t t1) {
+        std::vector<float> buf(m_data.empty() ? size_t(m_n) * size_t(m_n) * 3 : 0);
+        for (int64_t t = t0; t < t1; ++t) {
+          const float* px = nullptr;
+          if (m_data.empty()) {
+            m_dec->texel(t, buf.data());
+            px = buf.data();
+          } else {
+            px = &m_data[size_t(t) * size_t(m_n) * size_t(m_n) * 3];
+          }
+          for (int v = 0; v < m_n; ++v) {
+            double acc[3] = {0, 0, 0};
+            for (int l = 0; l < m_n; ++l)
+              for (int c = 0; c < 3; ++c)
+                acc[c] += lw[size_t(l)] *
+                          double(px[(size_t(v) * size_t(m_n) + size_t(l)) * 3 + size_t(c)]);
+            for (int c = 0; c < 3; ++c)
+              m_ambient[(size_t(t) * size_t(m_n) + size_t(v)) * 3 + size_t(c)] =
+                  std::isfinite(acc[c]) ? float(std::max(acc[c], 0.0)) : 0.f;
+          }
+        }
+      },
+      cancel);
+  throwIfCancelled(cancel, "render");
+}
+
+Rgb BtfSampler::ambient(double x, double y, const DVec3& wo) const {
+  DirWeight wv[4];
+  const int nv = interp(*m_dirs, wo, wv);
+  const double fx = x / m_Lx * m_nu - 0.5, fy = y / m_Ly * m_nv - 0.5;
+  const double x0 = std::floor(fx), y0 = std::floor(fy);
+  const double ax = fx - x0, ay = fy - y0;
+  Rgb acc(0);
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      const double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
+      if (w <= 0) continue;
+      const int64_t t = wrapIndex(x0 + i, m_nu) + int64_t(m_nu) * wrapIndex(y0 + j, m_nv);
+      for (int a = 0; a < nv; ++a) {
+        const float* p = &m_ambient[(size_t(t) * size_t(m_n) + size_t(wv[a].index)) * 3];
+        acc += float(w * wv[a].weight) * Rgb(p[0], p[1], p[2]);
+      }
     }
   return acc;
 }
@@ -467,7 +532,7 @@ RenderImage RenderScene::renderWith(const std::string& mode, const CancelToken* 
 RenderImage RenderScene::renderFlat(const BtfSampler& btf, const CancelToken* cancel,
                                     ProgressReporter* progress) const {
   const double T = m_s.tiling * m_Lx;
-  const float E = float(m_s.irradiance);
+  const float E = float(m_s.irradiance), Lenv = float(m_s.environment);
   RenderImage img = renderWith(
       "flat", cancel, progress,
       [&](const DVec3& o, const DVec3& d, Rng&, Rgb* out, uint64_t* rays) {
@@ -490,11 +555,13 @@ RenderImage RenderScene::renderFlat(const BtfSampler& btf, const CancelToken* ca
         frameOf(t, n, &tx, &ty);
         const DVec3 wo(glm::dot(-d, tx), glm::dot(-d, ty), glm::dot(-d, n));
         const DVec3 wi(glm::dot(m_light, tx), glm::dot(m_light, ty), glm::dot(m_light, n));
-        if (wo.z <= 0 || wi.z <= 0) return true;
+        if (wo.z <= 0) return true;
+        if (Lenv > 0) *out += Lenv * btf.ambient(uv.x * T, uv.y * T, glm::normalize(wo));
+        if (wi.z <= 0 || !(E > 0)) return true;
         const DVec3 p = o + d * h.t;
         ++*rays;
         if (m_base->occluded(p + ng * m_eps, m_light, m_eps)) return true;
-        *out =
+        *out +=
             E * float(wi.z) * btf.eval(uv.x * T, uv.y * T, glm::normalize(wo), glm::normalize(wi));
         return true;
       });
@@ -695,7 +762,7 @@ bool RenderScene::lightAt(const MarchHit& hit, const BtfSampler& btf, Rng& rng, 
 
 RenderImage RenderScene::renderMapped(const BtfSampler& btf, const CancelToken* cancel,
                                       ProgressReporter* progress) const {
-  const float E = float(m_s.irradiance);
+  const float E = float(m_s.irradiance), Lenv = float(m_s.environment);
   RenderImage img =
       renderWith("mapped", cancel, progress,
                  [&](const DVec3& o, const DVec3& d, Rng& rng, Rgb* out, uint64_t* rays) {
@@ -703,9 +770,10 @@ RenderImage RenderScene::renderMapped(const BtfSampler& btf, const CancelToken* 
                    const MarchResult m = march(o, d, 0.0, btf, rng, &hit, rays);
                    if (m == kMiss) return false;
                    if (m == kAbsorbed) return true;
+                   if (Lenv > 0) *out += Lenv * btf.ambient(hit.crossing.x, hit.crossing.y, hit.wo);
                    DVec3 wi;
-                   if (!lightAt(hit, btf, rng, &wi, rays)) return true;
-                   *out = E * float(wi.z) * btf.eval(hit.crossing.x, hit.crossing.y, hit.wo, wi);
+                   if (!(E > 0) || !lightAt(hit, btf, rng, &wi, rays)) return true;
+                   *out += E * float(wi.z) * btf.eval(hit.crossing.x, hit.crossing.y, hit.wo, wi);
                    return true;
                  });
   img.triangles = m_faces.size();
@@ -898,7 +966,7 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
   const double buildSeconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - tBuild).count();
 
-  const float E = float(m_s.irradiance);
+  const float E = float(m_s.irradiance), Lenv = float(m_s.environment);
   const int limit = m_s.bounces > 0 ? std::min(m_s.bounces, 256) : 256;
   const Vec3 L(m_light);
   RenderImage img = renderWith(
@@ -940,19 +1008,21 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
           const Vec3 woL = frame.toLocal(toViewer);
           const DVec3 origin = p + DVec3(ng) * m_eps;
           const float cosN = glm::dot(n, L);
-          if (cosN > 0 && glm::dot(ng, L) > 0) {
+          if (E > 0 && cosN > 0 && glm::dot(ng, L) > 0) {
             ++*rays;
             if (!tracer.occluded(origin, m_light))
               sum += beta * evalBrdf(mat, frame.toLocal(L), woL) * (cosN * E);
           }
-          if (bounce >= limit) break;
+          // After the last bounce a sample is still drawn when there is a sky: it is direct
+          // light too (an escaping sample adds it; a hit adds nothing more).
+          if (bounce >= limit && !(Lenv > 0)) break;
           const float u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
           const BrdfSample bs = sampleBrdf(mat, woL, u0, u1, u2);
           if (!(bs.pdf > 0)) break;
           const Vec3 wiW = frame.toWorld(bs.wi);
           if (glm::dot(ng, wiW) <= 0) break;
           beta *= evalBrdf(mat, bs.wi, woL) * (bs.wi.z / bs.pdf);
-          if (bounce >= 3) {
+          if (bounce >= 3 && bounce < limit) {
             const float qq = std::min(0.95f, std::max(beta.x, std::max(beta.y, beta.z)));
             if (!(qq > 0) || rng.uniform() >= qq) break;
             beta /= qq;
@@ -962,7 +1032,11 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
           org = origin;
           h = tracer.intersect(org, dir);
           ++*rays;
-          if (!h.hit()) break;
+          if (!h.hit()) {
+            sum += beta * Lenv;  // the path escapes to the sky
+            break;
+          }
+          if (bounce >= limit) break;
         }
         *out = sum;
         return true;

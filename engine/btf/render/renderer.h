@@ -46,6 +46,7 @@ struct RenderSettings {
   double zoom = 1;                         // > 1 magnifies
   double lightTheta = 45, lightPhi = -30;  // degrees: direction toward the light (world)
   double irradiance = 1;                   // of the light on a surface facing it
+  double environment = 0;                  // radiance of a constant sky all around (0 = none)
   double tiling = 4;                       // tiles per uv unit
   double reliefScale = 1;                  // multiplies the relief's heights on the object
   int bounces = 0;                         // exact: reflections per path (0 = unbounded, RR)
@@ -82,12 +83,20 @@ class BtfSampler {
   /// the height above the reference plane of the hit of the line through (x, y, 0) along −w.
   void vmf(double x, double y, const DVec3& w, float* coverage, float* height) const;
   uint64_t memoryBytes() const;
+  /// For a constant environment: per texel and view, Σ_l aBRDF(t, v, l)·w_l over the set's light
+  /// directions, w_l the cosine-weighted solid angle of l's ring band shared by its count (they
+  /// sum to π): the reflected radiance under a sky of radiance 1. Computed once (a pass over
+  /// every value).
+  void prepareAmbient(const CancelToken* cancel = nullptr);
+  /// That sum at (x, y) (bilinear, periodic) for view wo (interpolated); prepareAmbient first.
+  Rgb ambient(double x, double y, const DVec3& wo) const;
 
  private:
   std::unique_ptr<Decoder> m_dec;
   std::shared_ptr<DirectionSet> m_dirs;
-  std::vector<float> m_data;  // raw: texel-major values
-  std::vector<float> m_vmf;   // nDirs × texels × 2
+  std::vector<float> m_data;     // raw: texel-major values
+  std::vector<float> m_vmf;      // nDirs × texels × 2
+  std::vector<float> m_ambient;  // texels × views × 3 (prepareAmbient)
   bool m_hasVmf = false, m_flat = false;
   int m_nu = 1, m_nv = 1, m_n = 1;
   double m_Lx = 1, m_Ly = 1;

@@ -288,6 +288,32 @@ TEST(Render, NonHeightFieldTileOnTheCurvedSection) {
   EXPECT_LE(e.relRmse, 0.30);
 }
 
+TEST(Render, UnderAConstantSkyALambertSphereReflectsAlbedoTimesSky) {
+  // The furnace: a convex object, no light, a sky of radiance 2 all around. Every point of a
+  // Lambertian surface sees the whole sky over its horizon: radiance ρ·2. The exact path tracer
+  // gets it sample by sample; flat and mapped sum the BTF over the set's light directions, each
+  // weighted by its band's ∫cos dω (they sum to π: exact for a constant aBRDF).
+  const fs::path dir = test::tempDir("render_sky");
+  const std::string btfPath = simulate(dir, "flat", kFlat);
+  const Tile t = tileOf(btfPath);
+  RenderSettings s;
+  s.width = s.height = 32;
+  s.spp = 2;
+  s.irradiance = 0;
+  s.environment = 2;
+  const RenderScene rs(makeObject("sphere"), 1, 1, t.geom.zmin, t.geom.zmax, s);
+  BtfSampler btf(btfPath, "", true, uint64_t(1) << 30);
+  btf.prepareAmbient();
+  const RenderImage flat = rs.renderFlat(btf, nullptr, nullptr);
+  const RenderImage mapped = rs.renderMapped(btf, nullptr, nullptr);
+  const RenderImage exact =
+      rs.renderExact(t.geom, compileMaterials(t.scene), uint64_t(1) << 24, nullptr, nullptr);
+  const double expect = 0.7 * 2;
+  EXPECT_NEAR(meanOver(exact), expect, 1e-3 * expect);
+  EXPECT_NEAR(meanOver(flat), expect, 0.005 * expect);
+  EXPECT_NEAR(meanOver(mapped), expect, 0.005 * expect);
+}
+
 TEST(Render, BadInputGetsAClearMessage) {
   const fs::path dir = test::tempDir("render_bad");
   const std::string flatBtf = simulate(dir, "flat", kFlat);
