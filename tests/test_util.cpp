@@ -1,5 +1,6 @@
 #include "test_util.h"
 
+#include <btf/core/error.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -58,6 +59,15 @@ void addDegenerateTriangles(TileGeometry& g) {
   g.mesh.tri.push_back({b, b + 1, b + 2});
   g.triMaterial.resize(g.mesh.tri.size(), 0);
   g.triPart.resize(g.mesh.tri.size(), 0);
+}
+
+std::string errorOf(const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
 }
 
 }  // namespace btf::test

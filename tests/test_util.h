@@ -4,6 +4,7 @@
 #include <btf/scene/scene.h>
 
 #include <filesystem>
+#include <functional>
 #include <string>
 
 namespace btf::test {
@@ -19,5 +20,7 @@ std::string sourceDir();
 /// material and part 0: the degenerate-geometry hard case.
 void addDegenerateTriangles(TileGeometry& g);
 std::string readFile(const std::filesystem::path& p);
+/// The btf::Error message `fn` throws, "" when it throws none.
+std::string errorOf(const std::function<void()>& fn);
 
 }  // namespace btf::test

@@ -92,6 +92,20 @@ PolyMesh readPoly(const std::string& path, uint64_t maxTriangles, bool* hasUv = 
   return mesh;
 }
 
+/// The vertices, each checked finite (the file and the vertex named otherwise).
+std::vector<Vec3> finitePoints(const PolyMesh& pm, const std::string& path) {
+  std::vector<Vec3> out;
+  out.reserve(pm.n_vertices());
+  for (auto v : pm.vertices()) {
+    const auto p = pm.point(v);
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      throw Error(path + ": vertex " + std::to_string(v.idx()) +
+                  " has a non-finite coordinate (inf or nan)");
+    out.push_back(Vec3(p[0], p[1], p[2]));
+  }
+  return out;
+}
+
 void checkDegenerate(const TriMesh& m, const std::string& path) {
   Vec3 lo(1e30f), hi(-1e30f);
   for (const auto& p : m.pos) {
@@ -114,13 +128,7 @@ void checkDegenerate(const TriMesh& m, const std::string& path) {
 TriMesh loadMeshFile(const std::string& path, bool smooth, uint64_t maxTriangles) {
   PolyMesh pm = readPoly(path, maxTriangles);
   TriMesh m;
-  for (auto v : pm.vertices()) {
-    const auto p = pm.point(v);
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
-      throw Error(path + ": vertex " + std::to_string(v.idx()) +
-                  " has a non-finite coordinate (inf or nan)");
-    m.pos.push_back(Vec3(p[0], p[1], p[2]));
-  }
+  m.pos = finitePoints(pm, path);
   for (auto f : pm.faces()) {
     std::vector<uint32_t> ids;
     for (auto v : pm.fv_range(f)) ids.push_back(uint32_t(v.idx()));
@@ -141,13 +149,7 @@ TriMesh loadMeshFileUv(const std::string& path, std::vector<glm::vec2>* uv, uint
                 "mapped onto an object by them");
   const bool perCorner = pm.has_halfedge_texcoords2D();
   TriMesh src;
-  for (auto v : pm.vertices()) {
-    const auto p = pm.point(v);
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
-      throw Error(path + ": vertex " + std::to_string(v.idx()) +
-                  " has a non-finite coordinate (inf or nan)");
-    src.pos.push_back(Vec3(p[0], p[1], p[2]));
-  }
+  src.pos = finitePoints(pm, path);
   // Corners: (vertex, uv); a vertex with different uv in different faces (a seam) is split.
   std::vector<std::pair<uint32_t, glm::vec2>> corners;
   std::vector<std::vector<uint32_t>> faces;

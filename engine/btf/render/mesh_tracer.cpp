@@ -1,6 +1,6 @@
 #include <btf/core/error.h>
 #include <btf/render/mesh_tracer.h>
-#include <embree3/rtcore.h>
+#include <btf/trace/embree_device.h>
 
 #include <algorithm>
 #include <mutex>
@@ -8,23 +8,10 @@
 
 namespace btf {
 
-namespace {
-struct Errors {
-  std::mutex mutex;
-  std::string message;
-};
-void onError(void* user, RTCError code, const char* str) {
-  auto* e = static_cast<Errors*>(user);
-  std::lock_guard lock(e->mutex);
-  if (e->message.empty())
-    e->message = "Embree error " + std::to_string(int(code)) + ": " + (str ? str : "");
-}
-}  // namespace
-
 struct MeshTracer::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
-  Errors errors;
+  EmbreeErrors errors;
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
     if (device) rtcReleaseDevice(device);
@@ -35,9 +22,7 @@ MeshTracer::MeshTracer(const std::vector<Vec3>& pos, const std::vector<glm::uvec
     : m_impl(std::make_unique<Impl>()) {
   if (tri.empty()) throw Error("cannot trace an empty mesh");
   Impl& im = *m_impl;
-  im.device = rtcNewDevice("threads=0");
-  if (!im.device) throw Error("cannot create the Embree device");
-  rtcSetDeviceErrorFunction(im.device, onError, &im.errors);
+  im.device = newEmbreeDevice(&im.errors);
   im.scene = rtcNewScene(im.device);
   rtcSetSceneFlags(im.scene, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_HIGH);

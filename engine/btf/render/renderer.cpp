@@ -127,22 +127,28 @@ Rgb BtfSampler::value(int64_t texel, int view, int light) const {
   return {v[0], v[1], v[2]};
 }
 
-Rgb BtfSampler::eval(double x, double y, const DVec3& wo, const DVec3& wi) const {
-  DirWeight wv[4], wl[4];
-  const int nv = interp(*m_dirs, wo, wv), nl = interp(*m_dirs, wi, wl);
+template <class Fn>
+void BtfSampler::bilinear(double x, double y, Fn&& fn) const {
+  // Texel centres at integer + ½ (in texel units), periodic.
   const double fx = x / m_Lx * m_nu - 0.5, fy = y / m_Ly * m_nv - 0.5;
   const double x0 = std::floor(fx), y0 = std::floor(fy);
   const double ax = fx - x0, ay = fy - y0;
-  Rgb acc(0);
   for (int j = 0; j < 2; ++j)
     for (int i = 0; i < 2; ++i) {
       const double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
-      if (w <= 0) continue;
-      const int64_t t = wrapIndex(x0 + i, m_nu) + int64_t(m_nu) * wrapIndex(y0 + j, m_nv);
-      for (int a = 0; a < nv; ++a)
-        for (int b = 0; b < nl; ++b)
-          acc += float(w * wv[a].weight * wl[b].weight) * value(t, wv[a].index, wl[b].index);
+      if (w > 0) fn(wrapIndex(x0 + i, m_nu) + int64_t(m_nu) * wrapIndex(y0 + j, m_nv), w);
     }
+}
+
+Rgb BtfSampler::eval(double x, double y, const DVec3& wo, const DVec3& wi) const {
+  DirWeight wv[4], wl[4];
+  const int nv = interp(*m_dirs, wo, wv), nl = interp(*m_dirs, wi, wl);
+  Rgb acc(0);
+  bilinear(x, y, [&](int64_t t, double w) {
+    for (int a = 0; a < nv; ++a)
+      for (int b = 0; b < nl; ++b)
+        acc += float(w * wv[a].weight * wl[b].weight) * value(t, wv[a].index, wl[b].index);
+  });
   return acc;
 }
 
@@ -193,20 +199,13 @@ void BtfSampler::prepareAmbient(const CancelToken* cancel) {
 Rgb BtfSampler::ambient(double x, double y, const DVec3& wo) const {
   DirWeight wv[4];
   const int nv = interp(*m_dirs, wo, wv);
-  const double fx = x / m_Lx * m_nu - 0.5, fy = y / m_Ly * m_nv - 0.5;
-  const double x0 = std::floor(fx), y0 = std::floor(fy);
-  const double ax = fx - x0, ay = fy - y0;
   Rgb acc(0);
-  for (int j = 0; j < 2; ++j)
-    for (int i = 0; i < 2; ++i) {
-      const double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
-      if (w <= 0) continue;
-      const int64_t t = wrapIndex(x0 + i, m_nu) + int64_t(m_nu) * wrapIndex(y0 + j, m_nv);
-      for (int a = 0; a < nv; ++a) {
-        const float* p = &m_ambient[(size_t(t) * size_t(m_n) + size_t(wv[a].index)) * 3];
-        acc += float(w * wv[a].weight) * Rgb(p[0], p[1], p[2]);
-      }
+  bilinear(x, y, [&](int64_t t, double w) {
+    for (int a = 0; a < nv; ++a) {
+      const float* p = &m_ambient[(size_t(t) * size_t(m_n) + size_t(wv[a].index)) * 3];
+      acc += float(w * wv[a].weight) * Rgb(p[0], p[1], p[2]);
     }
+  });
   return acc;
 }
 

@@ -101,6 +101,9 @@ class BtfSampler {
   int m_nu = 1, m_nv = 1, m_n = 1;
   double m_Lx = 1, m_Ly = 1;
   Rgb value(int64_t texel, int view, int light) const;
+  /// fn(texel, weight) for the four texels around (x, y) (tile units), bilinear and periodic.
+  template <class Fn>
+  void bilinear(double x, double y, Fn&& fn) const;
 };
 
 /// The object, its tile space and its shell, shared by the three modes.

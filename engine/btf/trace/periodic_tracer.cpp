@@ -1,6 +1,6 @@
 #include <btf/core/error.h>
+#include <btf/trace/embree_device.h>
 #include <btf/trace/periodic_tracer.h>
-#include <embree3/rtcore.h>
 
 #include <algorithm>
 #include <cmath>
@@ -10,26 +10,10 @@
 
 namespace btf {
 
-namespace {
-
-struct DeviceErrors {
-  std::mutex mutex;
-  std::string message;
-};
-
-void onEmbreeError(void* user, RTCError code, const char* str) {
-  auto* e = static_cast<DeviceErrors*>(user);
-  std::lock_guard lock(e->mutex);
-  if (e->message.empty())
-    e->message = "Embree error " + std::to_string(int(code)) + ": " + (str ? str : "");
-}
-
-}  // namespace
-
 struct PeriodicTracer::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
-  DeviceErrors errors;
+  EmbreeErrors errors;
   std::vector<uint32_t> copyToPrim;  // Embree primID → original triangle
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
@@ -44,9 +28,7 @@ PeriodicTracer::PeriodicTracer(const TileGeometry& g)
   const double extent = std::max({g.Lx, g.Ly, double(g.zmax - g.zmin)});
   m_eps = 1e-4 * extent;
   Impl& im = *m_impl;
-  im.device = rtcNewDevice("threads=0");
-  if (!im.device) throw Error("cannot create the Embree device");
-  rtcSetDeviceErrorFunction(im.device, onEmbreeError, &im.errors);
+  im.device = newEmbreeDevice(&im.errors);
   im.scene = rtcNewScene(im.device);
   rtcSetSceneFlags(im.scene, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_HIGH);

@@ -27,14 +27,7 @@ std::string scenePath(const std::string& n) {
   return test::sourceDir() + "/resources/scenes/" + n + ".json";
 }
 
-std::string errorOf(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::errorOf;
 
 TEST(Request, ValuesAreCheckedAgainstTheDeclaration) {
   ops::Request r("simulate");
