@@ -62,6 +62,24 @@ Tile tileOf(const std::string& btfPath) {
 
 /// Mean grey over the pixels at least `minAlpha` covered whose neighbours `margin` pixels away
 /// (rows and columns) are fully covered too: away from the object's edges.
+/// The three modes of one BTF on `object` (the sky's table prepared when the settings ask for
+/// one).
+struct Images {
+  RenderImage flat, mapped, exact;
+};
+Images renderAll(const std::string& btfPath, const std::string& object, const RenderSettings& s,
+                 bool flatTile = false) {
+  const Tile t = tileOf(btfPath);
+  const RenderScene rs(makeObject(object), 1, 1, t.geom.zmin, t.geom.zmax, s);
+  BtfSampler btf(btfPath, "", flatTile, uint64_t(1) << 30);
+  if (s.environment > 0) btf.prepareAmbient();
+  Images im;
+  im.flat = rs.renderFlat(btf, nullptr, nullptr);
+  im.mapped = rs.renderMapped(btf, nullptr, nullptr);
+  im.exact = rs.renderExact(t.geom, compileMaterials(t.scene), uint64_t(1) << 24, nullptr, nullptr);
+  return im;
+}
+
 double meanOver(const RenderImage& img, float minAlpha = 0.999f, int margin = 0) {
   double s = 0;
   int64_t n = 0;
@@ -97,19 +115,15 @@ const char* kFlat = R"({
 TEST(Render, FlatTileOnAPlaneIsTheSameInEveryModeAndHasNoSilhouette) {
   const fs::path dir = test::tempDir("render_flat");
   const std::string btfPath = simulate(dir, "flat", kFlat);
-  const Tile t = tileOf(btfPath);
   RenderSettings s;
   s.width = s.height = 48;
   s.spp = 2;
   s.camTheta = 50, s.camPhi = -60;
   s.lightTheta = 40, s.lightPhi = 20;
-  const RenderScene rs(makeObject("plane"), 1, 1, t.geom.zmin, t.geom.zmax, s);
-  const BtfSampler btf(btfPath, "", true, uint64_t(1) << 30);
-  EXPECT_FALSE(btf.hasVmf());  // the plan drops it for a flat tile: the plane z = 0 stands in
-  const RenderImage flat = rs.renderFlat(btf, nullptr, nullptr);
-  const RenderImage mapped = rs.renderMapped(btf, nullptr, nullptr);
-  const RenderImage exact =
-      rs.renderExact(t.geom, compileMaterials(t.scene), uint64_t(1) << 24, nullptr, nullptr);
+  EXPECT_FALSE(BtfSampler(btfPath, "", true, uint64_t(1) << 30)
+                   .hasVmf());  // the plan drops it for a flat tile
+  const Images im = renderAll(btfPath, "plane", s, true);
+  const RenderImage &flat = im.flat, &mapped = im.mapped, &exact = im.exact;
   // Lambert on a plane: E·ρ/π·cos θi at every covered pixel, whatever the mode.
   const double expect = 0.7 / kPi * std::cos(deg2rad(40));
   for (const RenderImage* img : {&flat, &mapped, &exact}) {
@@ -140,19 +154,14 @@ TEST(Render, VGroovesAtGrazingAnglesShowTheirAnalyticMasking) {
     "simulation": {"texels": [16, 16], "directions": "axis-grid", "grid": [6, 16]}
   })",
                                        {{"bounces", "1"}, {"spp", "4"}});
-  const Tile t = tileOf(btfPath);
   RenderSettings s;
   s.width = s.height = 128;
   s.spp = 4;
   s.camTheta = s.lightTheta = 75, s.camPhi = s.lightPhi = 0;
   s.bounces = 1;
-  const RenderScene rs(makeObject("plane"), 1, 1, t.geom.zmin, t.geom.zmax, s);
-  const BtfSampler btf(btfPath, "", false, uint64_t(1) << 30);
-  ASSERT_TRUE(btf.hasVmf());
-  const RenderImage mapped = rs.renderMapped(btf, nullptr, nullptr);
-  const RenderImage exact =
-      rs.renderExact(t.geom, compileMaterials(t.scene), uint64_t(1) << 24, nullptr, nullptr);
-  const RenderImage flat = rs.renderFlat(btf, nullptr, nullptr);
+  ASSERT_TRUE(BtfSampler(btfPath, "", false, uint64_t(1) << 30).hasVmf());
+  const Images im = renderAll(btfPath, "plane", s, false);
+  const RenderImage &flat = im.flat, &mapped = im.mapped, &exact = im.exact;
   const double alpha = std::atan(0.5);
   const double expect = 0.6 / kPi * std::cos(deg2rad(75) - alpha);
   // Away from the plane's edges (where the exact grooves are cut open).
@@ -179,18 +188,13 @@ TEST(Render, TheShellsSilhouetteMatchesTheExactMicroGeometry) {
     "simulation": {"texels": [16, 16], "directions": "axis-grid", "grid": [8, 16]}
   })",
                                        {{"bounces", "1"}, {"spp", "2"}});
-  const Tile t = tileOf(btfPath);
   RenderSettings s;
   s.width = s.height = 128;
   s.spp = 4;
   s.camTheta = 90, s.camPhi = -90;
   s.tiling = 6;
-  const RenderScene rs(makeObject("cylinder"), 1, 1, t.geom.zmin, t.geom.zmax, s);
-  const BtfSampler btf(btfPath, "", false, uint64_t(1) << 30);
-  const RenderImage mapped = rs.renderMapped(btf, nullptr, nullptr);
-  const RenderImage exact =
-      rs.renderExact(t.geom, compileMaterials(t.scene), uint64_t(1) << 24, nullptr, nullptr);
-  const RenderImage flat = rs.renderFlat(btf, nullptr, nullptr);
+  const Images im = renderAll(btfPath, "cylinder", s, false);
+  const RenderImage &flat = im.flat, &mapped = im.mapped, &exact = im.exact;
   auto width = [&](const RenderImage& img, int row) {
     double w = 0;
     for (int i = 0; i < img.width; ++i) w += img.alpha[size_t(row) * size_t(img.width) + size_t(i)];
@@ -224,7 +228,6 @@ TEST(Render, ATallReliefShadowsItsNeighboursInMappedAsInExact) {
     "simulation": {"texels": [16, 16], "directions": "axis-grid", "grid": [9, 16]}
   })",
                                        {{"bounces", "1"}, {"spp", "4"}});
-  const Tile t = tileOf(btfPath);
   RenderSettings s;
   s.width = s.height = 96;
   s.spp = 4;
@@ -233,11 +236,8 @@ TEST(Render, ATallReliefShadowsItsNeighboursInMappedAsInExact) {
   s.bounces = 1;
   s.tiling = 4;
   s.zoom = 2;  // the middle of the plane: away from its edges, where the exact boxes stop
-  const RenderScene rs(makeObject("plane"), 1, 1, t.geom.zmin, t.geom.zmax, s);
-  const BtfSampler btf(btfPath, "", false, uint64_t(1) << 30);
-  const RenderImage mapped = rs.renderMapped(btf, nullptr, nullptr);
-  const RenderImage exact =
-      rs.renderExact(t.geom, compileMaterials(t.scene), uint64_t(1) << 24, nullptr, nullptr);
+  const Images im = renderAll(btfPath, "plane", s, false);
+  const RenderImage &mapped = im.mapped, &exact = im.exact;
   // Seen from above: the boxes' tops (4 % of the tile) and the ground, lit at E·ρ/π·cos 70°
   // where no box shadows it. A shadow is 0.2 wide and 0.5·tan 70° = 1.37 long: longer than the
   // tile, so it runs on through the neighbouring tiles and darkens the whole strip
@@ -264,17 +264,13 @@ TEST(Render, NonHeightFieldTileOnTheCurvedSection) {
     "simulation": {"texels": [16, 16], "directions": "axis-grid", "grid": [8, 16]}
   })",
                                        {{"bounces", "1"}, {"spp", "2"}});
-  const Tile t = tileOf(btfPath);
   RenderSettings s;
   s.width = s.height = 96;
   s.spp = 4;
   s.lightTheta = 20, s.lightPhi = 0;
   s.bounces = 1;
-  const RenderScene rs(makeObject("section"), 1, 1, t.geom.zmin, t.geom.zmax, s);
-  const BtfSampler btf(btfPath, "", false, uint64_t(1) << 30);
-  const RenderImage mapped = rs.renderMapped(btf, nullptr, nullptr);
-  const RenderImage exact =
-      rs.renderExact(t.geom, compileMaterials(t.scene), uint64_t(1) << 24, nullptr, nullptr);
+  const Images im = renderAll(btfPath, "section", s, false);
+  const RenderImage &mapped = im.mapped, &exact = im.exact;
   const ImageError e = compareImages(mapped, exact);
   EXPECT_LE(e.coverageMismatch, 0.03);
   EXPECT_NEAR(meanOver(mapped, 0.5f), meanOver(exact, 0.5f), 0.05 * meanOver(exact, 0.5f));
@@ -288,19 +284,13 @@ TEST(Render, UnderAConstantSkyALambertSphereReflectsAlbedoTimesSky) {
   // weighted by its band's ∫cos dω (they sum to π: exact for a constant aBRDF).
   const fs::path dir = test::tempDir("render_sky");
   const std::string btfPath = simulate(dir, "flat", kFlat);
-  const Tile t = tileOf(btfPath);
   RenderSettings s;
   s.width = s.height = 32;
   s.spp = 2;
   s.irradiance = 0;
   s.environment = 2;
-  const RenderScene rs(makeObject("sphere"), 1, 1, t.geom.zmin, t.geom.zmax, s);
-  BtfSampler btf(btfPath, "", true, uint64_t(1) << 30);
-  btf.prepareAmbient();
-  const RenderImage flat = rs.renderFlat(btf, nullptr, nullptr);
-  const RenderImage mapped = rs.renderMapped(btf, nullptr, nullptr);
-  const RenderImage exact =
-      rs.renderExact(t.geom, compileMaterials(t.scene), uint64_t(1) << 24, nullptr, nullptr);
+  const Images im = renderAll(btfPath, "sphere", s, true);
+  const RenderImage &flat = im.flat, &mapped = im.mapped, &exact = im.exact;
   const double expect = 0.7 * 2;
   EXPECT_NEAR(meanOver(exact), expect, 1e-3 * expect);
   EXPECT_NEAR(meanOver(flat), expect, 0.005 * expect);
