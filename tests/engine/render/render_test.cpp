@@ -120,8 +120,8 @@ TEST(Render, FlatTileOnAPlaneIsTheSameInEveryModeAndHasNoSilhouette) {
   s.spp = 2;
   s.camTheta = 50, s.camPhi = -60;
   s.lightTheta = 40, s.lightPhi = 20;
-  EXPECT_FALSE(BtfSampler(btfPath, "", true, uint64_t(1) << 30)
-                   .hasVmf());  // the plan drops it for a flat tile
+  // The plan drops the visibility map for a flat tile: the plane z = 0 stands in.
+  EXPECT_FALSE(BtfSampler(btfPath, "", true, uint64_t(1) << 30).hasVmf());
   const Images im = renderAll(btfPath, "plane", s, true);
   const RenderImage &flat = im.flat, &mapped = im.mapped, &exact = im.exact;
   // Lambert on a plane: E·ρ/π·cos θi at every covered pixel, whatever the mode.
