@@ -91,6 +91,24 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
     for (float& x : m_data)
       if (!std::isfinite(x) || x < 0) x = 0;
     if (I.hasVmf) loadVmf(r);
+  } else {
+    // A compressed BTF is decoded whole when it fits (a render reads each value many times, and
+    // a texel's decode shares its work across its values); per value through the decoder
+    // otherwise.
+    const uint64_t bytes = uint64_t(I.texels()) * I.texelBytes();
+    if (bytes <= memoryBudget / 2) {
+      m_data.resize(size_t(bytes / sizeof(float)));
+      const size_t per = size_t(I.nDirs()) * size_t(I.nDirs()) * 3;
+      parallelForChunks(
+          I.texels(), 16,
+          [&](int64_t t0, int64_t t1) {
+            for (int64_t t = t0; t < t1; ++t) m_dec->texel(t, &m_data[size_t(t) * per]);
+          },
+          cancel);
+      throwIfCancelled(cancel, "render");
+      for (float& x : m_data)
+        if (!std::isfinite(x) || x < 0) x = 0;
+    }
   }
   if (m_vmf.empty() && !vmfPath.empty()) {
     BtfReader r(vmfPath);

@@ -66,7 +66,8 @@ struct RenderImage {
 
 /// The BTF values and visibility map the flat and mapped modes read, in tile units and
 /// tile-frame directions (z up). Raw stores are read whole into memory (every chunk checksum
-/// verified); compressed files decode per value.
+/// verified); compressed files are decoded whole when they fit in half the memory budget, per
+/// value otherwise.
 class BtfSampler {
  public:
   /// `vmfPath` (a raw store of the same scene) supplies the visibility map when `path` has none
