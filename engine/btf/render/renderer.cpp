@@ -816,10 +816,27 @@ struct ClipVertex {
 }  // namespace
 
 uint64_t RenderScene::exactTriangleEstimate(const TileGeometry& tile) const {
-  double area = 0;
-  for (const Prism& p : m_prisms)
-    area += 0.5 * std::abs(cross2(p.xy[1] - p.xy[0], p.xy[2] - p.xy[0]));
-  return uint64_t(double(tile.triangleCount()) * (area / (m_Lx * m_Ly)) * 1.3) + m_prisms.size();
+  // Micro triangle i (extent s_i) lands in every prism p whose tile-space triangle its box meets:
+  // at most (√A_p + s_i)²/(Lx·Ly) copies (the Minkowski sum of two boxes), each clipped piece a
+  // fan of triangles. Summed: (n·ΣA_p + 2·Σ√A_p·Σs_i + P·Σs_i²)/(Lx·Ly), times 0.45: the boxes
+  // overstate a triangle's reach; measured on brick at tiling 6 (vase, sphere, section) the
+  // result is 0.95–1.2× the triangles built. The build checks the real count against the budget
+  // too.
+  const auto& M = tile.mesh;
+  double s1 = 0, s2 = 0;
+  for (const auto& t : M.tri) {
+    const Vec3 a = M.pos[t.x], b = M.pos[t.y], c = M.pos[t.z];
+    const double si = std::max(std::max({a.x, b.x, c.x}) - std::min({a.x, b.x, c.x}),
+                               std::max({a.y, b.y, c.y}) - std::min({a.y, b.y, c.y}));
+    s1 += si, s2 += si * si;
+  }
+  double area = 0, roots = 0;
+  for (const Prism& p : m_prisms) {
+    const double A = 0.5 * std::abs(cross2(p.xy[1] - p.xy[0], p.xy[2] - p.xy[0]));
+    area += A, roots += std::sqrt(A);
+  }
+  const double n = double(M.tri.size()), P = double(m_prisms.size());
+  return uint64_t(0.45 * (n * area + 2 * roots * s1 + P * s2) / (m_Lx * m_Ly)) + m_prisms.size();
 }
 
 RenderImage RenderScene::renderExact(const TileGeometry& tile,
