@@ -197,6 +197,7 @@ def meshes():
          "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n")
     mesh("regressions", "off_binary.off", "off", b"OFF BINARY\n" + struct.pack(">3i", 3, 1, 0))
     mesh("regressions", "off_inf_vertex.off", "off", "OFF\n3 1 0\ninf 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    mesh("regressions", "off_formfeed_header.off", "off", "OFF\f0 0 20 \n \n")
     mesh("regressions", "unknown_extension_byte", "obj", "")
 
 
