@@ -1,5 +1,6 @@
 // Shared by the use-case files of btf/ops (not part of the engine's public surface).
 #pragma once
+#include <btf/core/format.h>
 #include <btf/ops/ops.h>
 #include <btf/scene/scene.h>
 
@@ -10,8 +11,7 @@ namespace btf::ops::detail {
 
 using json = nlohmann::ordered_json;
 
-/// printf into a std::string.
-std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+using btf::format;  // btf/core/format.h
 
 /// What every use case gets: the request, the context (progress already folded with --quiet),
 /// the note sink and the report to fill.

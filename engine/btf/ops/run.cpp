@@ -20,19 +20,6 @@ namespace fs = std::filesystem;
 
 namespace detail {
 
-std::string format(const char* fmt, ...) {
-  va_list a;
-  va_start(a, fmt);
-  va_list b;
-  va_copy(b, a);
-  const int n = std::vsnprintf(nullptr, 0, fmt, a);
-  va_end(a);
-  std::string s(size_t(std::max(0, n)), '\0');
-  std::vsnprintf(s.data(), s.size() + 1, fmt, b);
-  va_end(b);
-  return s;
-}
-
 std::vector<std::string> splitList(const std::string& s, const std::string& what) {
   std::vector<std::string> out;
   std::stringstream in(s);

@@ -1,6 +1,7 @@
 #include <btf/compress/cbtf.h>
 #include <btf/compress/codec.h>
 #include <btf/core/error.h>
+#include <btf/core/format.h>
 #include <btf/core/run_context.h>
 #include <btf/directions/direction_set.h>
 #include <btf/render/renderer.h>
@@ -20,16 +21,6 @@
 namespace btf {
 
 namespace {
-
-std::string fmt(const char* f, ...) __attribute__((format(printf, 1, 2)));
-std::string fmt(const char* f, ...) {
-  char buf[1024];
-  va_list ap;
-  va_start(ap, f);
-  vsnprintf(buf, sizeof buf, f, ap);
-  va_end(ap);
-  return buf;
-}
 
 DVec3 fromAngles(double thetaDeg, double phiDeg) {
   const double t = deg2rad(thetaDeg), p = deg2rad(phiDeg);
@@ -77,9 +68,9 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
     const uint64_t bytes = uint64_t(I.texels()) * I.texelBytes();
     if (bytes > memoryBudget)
       throw Error(
-          fmt("%s: its %.1f MiB of values exceed the memory budget (%.1f MiB); raise "
-              "--memory-budget or render a compressed copy (.cbtf)",
-              path.c_str(), double(bytes) / 1048576.0, double(memoryBudget) / 1048576.0));
+          format("%s: its %.1f MiB of values exceed the memory budget (%.1f MiB); raise "
+                 "--memory-budget or render a compressed copy (.cbtf)",
+                 path.c_str(), double(bytes) / 1048576.0, double(memoryBudget) / 1048576.0));
     BtfReader r(path);
     m_data.resize(size_t(bytes / sizeof(float)));
     for (int c = 0; c < I.chunks(); ++c) {
@@ -116,10 +107,10 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
     if (V.nu != I.nu || V.nv != I.nv || V.directionSet != I.directionSet ||
         V.sceneHash != I.sceneHash)
       throw Error(
-          fmt("%s: its visibility map does not belong to %s (texels %dx%d vs %dx%d, "
-              "directions %s vs %s, scene %s vs %s)",
-              vmfPath.c_str(), path.c_str(), V.nu, V.nv, I.nu, I.nv, V.directionSet.c_str(),
-              I.directionSet.c_str(), V.sceneHash.c_str(), I.sceneHash.c_str()));
+          format("%s: its visibility map does not belong to %s (texels %dx%d vs %dx%d, "
+                 "directions %s vs %s, scene %s vs %s)",
+                 vmfPath.c_str(), path.c_str(), V.nu, V.nv, I.nu, I.nv, V.directionSet.c_str(),
+                 I.directionSet.c_str(), V.sceneHash.c_str(), I.sceneHash.c_str()));
     if (!V.hasVmf) throw Error(vmfPath + ": this BTF has no visibility map either");
     loadVmf(r);
   }
@@ -309,10 +300,10 @@ RenderScene::RenderScene(ObjectMesh object, double Lx, double Ly, double zmin, d
       const double det = cross2(d1, d2);
       if (!(std::abs(det) > 1e-12 * T * T))
         throw Error(
-            fmt("object %s: triangle %u has degenerate texture coordinates (uv (%g, %g), "
-                "(%g, %g), (%g, %g)); the renderer needs a texture map on every triangle",
-                m_obj.name.c_str(), t, m_obj.uv[tr.x].x, m_obj.uv[tr.x].y, m_obj.uv[tr.y].x,
-                m_obj.uv[tr.y].y, m_obj.uv[tr.z].x, m_obj.uv[tr.z].y));
+            format("object %s: triangle %u has degenerate texture coordinates (uv (%g, %g), "
+                   "(%g, %g), (%g, %g)); the renderer needs a texture map on every triangle",
+                   m_obj.name.c_str(), t, m_obj.uv[tr.x].x, m_obj.uv[tr.x].y, m_obj.uv[tr.y].x,
+                   m_obj.uv[tr.y].y, m_obj.uv[tr.z].x, m_obj.uv[tr.z].y));
       // [b−a c−a] = [∂P/∂x ∂P/∂y] · [d1 d2]
       tx = ((b - a) * d2.y - (c - a) * d1.y) / det;
       ty = ((c - a) * d1.x - (b - a) * d2.x) / det;
@@ -359,12 +350,12 @@ RenderScene::RenderScene(ObjectMesh object, double Lx, double Ly, double zmin, d
     }
   if (worst < 0.05)
     throw Error(
-        fmt("relief scale %g with tiling %g makes the shell on %s fold over itself: the "
-            "relief spans %.4g to %.4g world units along the normal but the surface's "
-            "radius of curvature is only %.4g near (%.3f, %.3f, %.3f); lower "
-            "--relief-scale or raise --tiling",
-            s.reliefScale, s.tiling, m_obj.name.c_str(), m_hlo * m_K, m_hhi * m_K, worstR,
-            worstAt.x, worstAt.y, worstAt.z));
+        format("relief scale %g with tiling %g makes the shell on %s fold over itself: the "
+               "relief spans %.4g to %.4g world units along the normal but the surface's "
+               "radius of curvature is only %.4g near (%.3f, %.3f, %.3f); lower "
+               "--relief-scale or raise --tiling",
+               s.reliefScale, s.tiling, m_obj.name.c_str(), m_hlo * m_K, m_hhi * m_K, worstR,
+               worstAt.x, worstAt.y, worstAt.z));
 
   // Shell vertices: 2·w + level.
   std::vector<Vec3> sv(m_wpos.size() * 2);
@@ -401,9 +392,9 @@ RenderScene::RenderScene(ObjectMesh object, double Lx, double Ly, double zmin, d
       for (uint32_t f = it->second; f < it->second + 2; ++f) {
         if (attached[f].size() >= 2)
           throw Error(
-              fmt("object %s is not a manifold: an edge near (%.3f, %.3f, %.3f) has more "
-                  "than two triangles",
-                  m_obj.name.c_str(), m_wpos[u].x, m_wpos[u].y, m_wpos[u].z));
+              format("object %s is not a manifold: an edge near (%.3f, %.3f, %.3f) has more "
+                     "than two triangles",
+                     m_obj.name.c_str(), m_wpos[u].x, m_wpos[u].y, m_wpos[u].z));
         attached[f].push_back(pi);
       }
     }
@@ -428,9 +419,9 @@ RenderScene::RenderScene(ObjectMesh object, double Lx, double Ly, double zmin, d
       const int side = glm::dot(pc / 6.0 - fc, f.n) >= 0 ? 0 : 1;
       if (f.prism[side] >= 0)
         throw Error(
-            fmt("the shell on %s folds over itself near (%.3f, %.3f, %.3f): lower "
-                "--relief-scale or raise --tiling",
-                m_obj.name.c_str(), fc.x, fc.y, fc.z));
+            format("the shell on %s folds over itself near (%.3f, %.3f, %.3f): lower "
+                   "--relief-scale or raise --tiling",
+                   m_obj.name.c_str(), fc.x, fc.y, fc.z));
       f.prism[side] = pi;
     }
   }
@@ -846,10 +837,10 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
   const uint64_t estimate = exactTriangleEstimate(tile);
   if (estimate > maxTriangles)
     throw Error(
-        fmt("the exact object would hold about %llu triangles (%zu per tile, tiling %g); "
-            "the memory budget allows %llu: lower --tiling or raise --memory-budget",
-            (unsigned long long)estimate, tile.triangleCount(), m_s.tiling,
-            (unsigned long long)maxTriangles));
+        format("the exact object would hold about %llu triangles (%zu per tile, tiling %g); "
+               "the memory budget allows %llu: lower --tiling or raise --memory-budget",
+               (unsigned long long)estimate, tile.triangleCount(), m_s.tiling,
+               (unsigned long long)maxTriangles));
   const auto& M = tile.mesh;
   // Micro triangles binned on a grid over their tile-space bounds.
   double gx0 = 1e300, gx1 = -1e300, gy0 = 1e300, gy1 = -1e300;
@@ -991,9 +982,9 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
   if (X.tri.empty()) throw Error("the exact object has no triangles (is the tile empty?)");
   if (X.tri.size() > maxTriangles)
     throw Error(
-        fmt("the exact object holds %zu triangles; the memory budget allows %llu: lower "
-            "--tiling or raise --memory-budget",
-            X.tri.size(), (unsigned long long)maxTriangles));
+        format("the exact object holds %zu triangles; the memory budget allows %llu: lower "
+               "--tiling or raise --memory-budget",
+               X.tri.size(), (unsigned long long)maxTriangles));
   for (uint16_t m : X.mat)
     if (m >= materials.size()) throw Error("the tile names a material the scene does not have");
   const MeshTracer tracer(X.pos, X.tri);
@@ -1082,8 +1073,8 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
 
 ImageError compareImages(const RenderImage& img, const RenderImage& ref) {
   if (img.width != ref.width || img.height != ref.height)
-    throw Error(fmt("images of different sizes (%dx%d vs %dx%d)", img.width, img.height, ref.width,
-                    ref.height));
+    throw Error(format("images of different sizes (%dx%d vs %dx%d)", img.width, img.height,
+                       ref.width, ref.height));
   ImageError e;
   double num = 0, den = 0;
   for (size_t p = 0; p < img.alpha.size(); ++p) {
