@@ -2,6 +2,7 @@
 
 #include <btf/core/container.h>
 #include <btf/core/error.h>
+#include <btf/core/format.h>
 #include <btf/core/hash.h>
 #include <btf/core/input_file.h>
 #include <btf/core/json_limits.h>
@@ -64,6 +65,12 @@ Layout layoutOf(const CompressedBtf& c, const std::vector<std::vector<uint8_t>>&
     j["params"] = nlohmann::ordered_json::parse(c.paramsJson);
     j["stats"] = nlohmann::ordered_json::parse(c.statsJson);
     j["source"] = nlohmann::ordered_json::parse(infoToJson(c.info));
+    if (!c.levels.empty()) {
+      nlohmann::ordered_json lv = nlohmann::ordered_json::array();
+      for (const MipLevel& l : c.levels)
+        lv.push_back({{"texels", {l.nu, l.nv}}, {"first", l.first}});
+      j["levels"] = lv;
+    }
     nlohmann::ordered_json arr = nlohmann::ordered_json::array();
     for (size_t i = 0; i < c.arrays.size(); ++i) {
       const CArray& a = c.arrays[i];
@@ -232,6 +239,25 @@ CompressedBtf readCompressed(const std::string& path) {
   c.paramsJson = j.at("params").dump();
   c.statsJson = j.at("stats").dump();
   c.info = infoFromJson(h.at("/source").dump(), path);
+  if (j.contains("levels")) {
+    // A pyramid: its levels follow from the texel grid; the header lists them for readers.
+    const auto& lv = h.at("/levels");
+    const std::vector<MipLevel> want = mipLevels(c.info.nu, c.info.nv);
+    if (!lv.is_array() || lv.size() != want.size())
+      h.fail("/levels", "must list the " + std::to_string(want.size()) + " levels of a " +
+                            std::to_string(c.info.nu) + "×" + std::to_string(c.info.nv) +
+                            " texel grid");
+    for (size_t k = 0; k < want.size(); ++k) {
+      const std::string p = "/levels/" + std::to_string(k);
+      const MipLevel got{int(h.integer(p + "/texels/0", 1, 1 << 30)),
+                         int(h.integer(p + "/texels/1", 1, 1 << 30)),
+                         h.integer(p + "/first", 0, int64_t(1) << 50)};
+      if (!(got == want[k]))
+        h.fail(p, format("must be %d×%d texels from texel %lld", want[k].nu, want[k].nv,
+                         (long long)want[k].first));
+    }
+    c.levels = want;
+  }
   uint64_t end = 24 + hlen;
   const auto& list = h.at("/arrays");
   if (!list.is_array()) h.fail("/arrays", "must be a list");

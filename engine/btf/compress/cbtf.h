@@ -4,6 +4,7 @@
 // bind each array as a texture buffer and decode with the codec's formula.
 #pragma once
 #include <btf/store/btf_store.h>
+#include <btf/store/levels.h>
 
 #include <cstdint>
 #include <deque>
@@ -36,6 +37,9 @@ struct CompressedBtf {
   std::string paramsJson = "{}";  // codec settings and chosen ranks (JSON object text)
   std::string statsJson = "{}";   // encode time, peak memory, training error (JSON object text)
   std::deque<CArray> arrays;      // deque: references from add() stay valid
+  /// A pyramid (`compress --mip`, docs/mip.md): mipLevels(info.nu, info.nv), whose texels the
+  /// arrays code one after the other; empty for a single-level file.
+  std::vector<MipLevel> levels;
 
   const CArray& array(const std::string& name) const;
   bool hasArray(const std::string& name) const;
@@ -45,7 +49,7 @@ struct CompressedBtf {
   void quantize();
   uint64_t payloadBytes() const;  // Σ stored array bytes
   uint64_t fileBytes() const;     // header + alignment + arrays
-  double ratio() const;           // raw float RGB bytes / file bytes
+  double ratio() const;           // raw float RGB bytes (of level 0) / file bytes
 };
 
 /// Writes `path` atomically (PATH.partial, fsync, rename).

@@ -1,5 +1,6 @@
 #include "codec.h"
 
+#include <btf/compress/mip.h>
 #include <btf/core/error.h>
 #include <btf/core/rng.h>
 #include <btf/directions/direction_set.h>
@@ -143,6 +144,7 @@ std::unique_ptr<Encoder> makeEncoder(const CodecSettings& s, const BtfInfo& info
 }
 
 std::unique_ptr<Decoder> makeDecoder(CompressedBtf c) {
+  if (!c.levels.empty()) return makePyramidDecoder(std::move(c), 0);
   // The decoders check their arrays' shapes against the header; their errors name the file.
   const std::string where = c.source.empty() ? std::string("compressed BTF") : c.source;
   try {

@@ -16,6 +16,7 @@
 //                      Rt first; a texel's offset is the sum over earlier texels (decoders derive
 //                      it from the cluster array)
 //   value_c(t, v, l) = Σ_j coef_t[j] Σ_a Σ_b view[v, a] core[j, a, b] light[l, b]
+#include <btf/compress/mip.h>
 #include <btf/core/error.h>
 
 #include <algorithm>
@@ -852,6 +853,14 @@ std::unique_ptr<Decoder> makeTensorDecoder(CompressedBtf c) {
 
 TensorGpuTables tensorGpuTables(const CompressedBtf& c, uint64_t maxMatrixFloats) {
   if (c.codec != "tensor") throw Error("tensor tables of a '" + c.codec + "' file");
+  if (!c.levels.empty()) {
+    // A pyramid: the tables of every level's texels, level 0's first (what a shader indexing
+    // texels u + Nu·v reads).
+    CompressedBtf strip = c;
+    strip.info = pyramidInfo(c.info);
+    strip.levels.clear();
+    return TensorDecoder(strip).gpuTables(maxMatrixFloats);
+  }
   return TensorDecoder(c).gpuTables(maxMatrixFloats);
 }
 

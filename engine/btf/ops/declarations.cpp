@@ -60,6 +60,13 @@ ParamDecl excl(ParamDecl d) {
   return d;
 }
 
+// The texel level of a multi-resolution BTF (docs/mip.md).
+ParamDecl levelOption() {
+  return in("level", 0, 0, 30,
+            "texel level: 0 = the simulated texels, k = 2^k×2^k box averages (a --mip .cbtf "
+            "decodes its own; other files are box-filtered in memory)");
+}
+
 using Opts = std::vector<ParamDecl>;
 void append(Opts& a, const Opts& b) {
   a.insert(a.end(), b.begin(), b.end());
@@ -170,17 +177,23 @@ std::vector<CommandDecl> build() {
                  path("output", "compressed file (.cbtf, written atomically)")};
     append(c.options, codecOptions(true));
     append(c.options, {str("memory_budget", "8G", "memory budget, e.g. 8G"),
-                       flag("compare", "also measure the error against the input")});
+                       flag("compare", "also measure the error against the input"),
+                       flag("mip",
+                            "a pyramid: every texel level (2×2 box averages down to 1×1) "
+                            "coded together, each level's error measured (docs/mip.md)")});
     cs.push_back(c);
   }
   {
     CommandDecl c{"compare", "error between two BTFs (raw or compressed)", {}, {"a", "b"}, {}};
-    c.options = {path("a", "reference BTF (.btf or .cbtf)"), path("b", "BTF to measure"),
+    c.options = {path("a", "reference BTF (.btf or .cbtf)"),
+                 path("b", "BTF to measure"),
                  str("maps", "", "folder for per-texel and per-direction error maps"),
                  str("noise", "",
                      "a second, independent simulation of A (another --seed): reports A's own "
                      "noise floor, RMS(A − NOISE)/√2, and B's error in excess of it"),
-                 in("worst", 10, 0, 1000, "how many worst texels and directions to list")};
+                 in("worst", 10, 0, 1000, "how many worst texels and directions to list"),
+                 levelOption(),
+                 str("memory_budget", "8G", "memory budget of built levels")};
     cs.push_back(c);
   }
   {
@@ -193,7 +206,9 @@ std::vector<CommandDecl> build() {
         in("components", 0, 0, 4096, "ubo2014: components per channel (0 = from --target-rmse)"),
         fl("target_rmse", 0.01, 1e-4, 0.5,
            "ubo2014: relative RMSE the export may add to its input"),
-        in("phi_samples", 16, 1, 1024, "merl: half-vector azimuths averaged per bin")};
+        in("phi_samples", 16, 1, 1024, "merl: half-vector azimuths averaged per bin"),
+        levelOption(),
+        str("memory_budget", "8G", "memory budget of built levels")};
     c.options[1].required = true;
     cs.push_back(c);
   }
@@ -278,7 +293,9 @@ std::vector<CommandDecl> build() {
                  str("light", "", "θ,φ of the light (degrees)"),
                  str("texel", "", "u,v or avg: hemisphere image of aBRDF over views"),
                  fl("exposure", 1, 1e-6, 1e6, "PNG: multiplies π·aBRDF before the sRGB curve"),
-                 in("size", 256, 8, 8192, "hemisphere image size in pixels")};
+                 in("size", 256, 8, 8192, "hemisphere image size in pixels"),
+                 levelOption(),
+                 str("memory_budget", "8G", "memory budget of built levels")};
     c.options[3].required = true;
     cs.push_back(c);
   }
@@ -320,7 +337,17 @@ std::vector<CommandDecl> build() {
         str("vmf", "",
             "a raw store of the same scene that supplies the visibility map (a .cbtf "
             "has none)"),
-        str("memory_budget", "8G", "memory budget (BTF values, exact triangles), e.g. 8G")};
+        str("memory_budget", "8G", "memory budget (BTF values, exact triangles), e.g. 8G"),
+        en("filter", "mip", {"mip", "point"},
+           "flat and mapped: mip = each sample's texel level from its footprint (ray "
+           "differentials), trilinear, anisotropic taps; point = level 0 only (docs/mip.md)"),
+        in("mip_level", -1, -1, 30,
+           "every lookup (and the visibility map) at this texel level "
+           "(-1 = from the footprint)"),
+        in("max_aniso", 8, 1, 64, "taps along an elongated footprint's long axis"),
+        flag("show_level",
+             "draw the texel level each pixel uses in false colour (0 blue, 1 "
+             "cyan, 2 green, 3 yellow, 4 red, 5+ magenta)")};
     cs.push_back(c);
   }
   {

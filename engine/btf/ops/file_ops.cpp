@@ -2,6 +2,7 @@
 // openBtf, so each accepts a raw store or a compressed file alike.
 #include <btf/compress/compress.h>
 #include <btf/compress/export.h>
+#include <btf/compress/mip.h>
 #include <btf/core/rng.h>
 #include <btf/core/sysinfo.h>
 #include <btf/directions/direction_set.h>
@@ -51,10 +52,70 @@ std::string errorText(const ErrorReport& e) {
 
 }  // namespace
 
+namespace {
+
+// `compress --mip`: one process (a cluster job refuses it in run.cpp's checks).
+void compressMip(const Call& c, const CodecSettings& cs) {
+  const Request& r = c.r;
+  if (c.ctx.processes().distributed())
+    throw Error("compress --mip runs on one process: launch it without mpirun/srun");
+  PyramidReport rep;
+  const CompressedBtf b = compressPyramid(r.s("input"), cs, c.progress(), c.ctx.cancel, &rep);
+  c.ctx.check("encoder");
+  writeCompressed(r.s("output"), b);
+  c.rep.outputs.push_back(r.s("output"));
+  warnTarget(c, b);
+  json& j = c.rep.json;
+  const double raw0 = double(b.info.texels()) * b.info.texelBytes();
+  const double rawAll = double(pyramidTexels(b.levels)) * b.info.texelBytes();
+  j["input"] = r.s("input");
+  j["output"] = r.s("output");
+  j["codec"] = json::parse(b.paramsJson);
+  j["stats"] = json::parse(b.statsJson);
+  j["seconds"] = rep.seconds;
+  j["level_seconds"] = rep.levelSeconds;
+  j["train_seconds"] = rep.trainSeconds;
+  j["encode_seconds"] = rep.encodeSeconds;
+  j["finish_seconds"] = rep.finishSeconds;
+  j["raw_bytes"] = raw0;
+  j["pyramid_raw_bytes"] = rawAll;
+  j["compressed_bytes"] = rep.fileBytes;
+  j["ratio"] = rep.ratio;
+  j["pyramid_ratio"] = rawAll / double(std::max<uint64_t>(1, rep.fileBytes));
+  j["peak_memory_bytes"] = rep.peakRssBytes;
+  json lv = json::array();
+  std::string t = "wrote " + r.s("output") + " (a pyramid of " + std::to_string(b.levels.size()) +
+                  " texel levels)\n" + compressedText(b, rep.seconds, rep.peakRssBytes) +
+                  format(
+                      "  pyramid: raw %s (%.3f× level 0) -> 1:%.0f of the pyramid's raw "
+                      "bytes; levels built in %s\n",
+                      formatBytes(rawAll).c_str(), rawAll / raw0,
+                      rawAll / double(std::max<uint64_t>(1, rep.fileBytes)),
+                      formatSeconds(rep.levelSeconds).c_str());
+  for (size_t k = 0; k < rep.levels.size(); ++k) {
+    const auto& e = rep.levels[k];
+    lv.push_back(
+        {{"level", k}, {"texels", {e.nu, e.nv}}, {"relative_rmse", e.relRmse}, {"rmse", e.rmse}});
+    t += format("  level %-2zu %5d x %-5d relative RMSE %.3f %%\n", k, e.nu, e.nv, 100 * e.relRmse);
+  }
+  j["levels"] = lv;
+  c.rep.text = t;
+  c.rep.summary =
+      format("wrote %s, %zu levels, ratio 1:%.0f (of level 0) in %s, level 0 relative RMSE %.2f %%",
+             r.s("output").c_str(), b.levels.size(), b.ratio(), formatSeconds(rep.seconds).c_str(),
+             100 * rep.levels[0].relRmse);
+}
+
+}  // namespace
+
 void compress(const Call& c) {
   const Request& r = c.r;
   CodecSettings cs = codecSettings(r, r.s("codec"));
   cs.memoryBudget = parseBytes(r.s("memory_budget"));
+  if (r.b("mip")) {
+    compressMip(c, cs);
+    return;
+  }
   CompressReport rep;
   Comm& comm = c.ctx.processes();
   const CompressedBtf b = compressStore(r.s("input"), cs, c.progress(), c.ctx.cancel, &rep, &comm);
@@ -98,9 +159,11 @@ void compare(const Call& c) {
   const Request& r = c.r;
   Comm& comm = c.ctx.processes();
   std::unique_ptr<Decoder> A, B;
+  const int level = r.i("level");
+  const uint64_t budget = parseBytes(r.s("memory_budget"));
   collectively(comm, [&] {
-    A = openBtf(r.s("a"));
-    B = openBtf(r.s("b"));
+    A = openBtfLevel(r.s("a"), level, budget, c.progress(), c.ctx.cancel);
+    B = openBtfLevel(r.s("b"), level, budget, c.progress(), c.ctx.cancel);
   });
   const ErrorReport e = compareBtfs(*A, *B, c.progress(), r.i("worst"), c.ctx.cancel, &comm);
   if (!r.s("maps").empty() && comm.root()) writeErrorMaps(e, r.s("maps"));
@@ -110,17 +173,19 @@ void compare(const Call& c) {
   const double ratioA = ratioOf(r.s("a")), ratioB = ratioOf(r.s("b"));
   json& j = c.rep.json;
   j = json::parse(errorReportJson(e));
+  j["level"] = level;
   j["a"] = {{"path", r.s("a")}, {"kind", A->kind()}, {"ratio", ratioA}};
   j["b"] = {{"path", r.s("b")}, {"kind", B->kind()}, {"ratio", ratioB}};
   if (!r.s("maps").empty()) j["maps"] = r.s("maps");
   std::string t = format("A %s (%s, ratio 1:%.0f)\nB %s (%s, ratio 1:%.0f)\n", r.s("a").c_str(),
                          A->kind().c_str(), ratioA, r.s("b").c_str(), B->kind().c_str(), ratioB);
+  if (level > 0) t += format("texel level %d: %d x %d texels\n", level, A->info().nu, A->info().nv);
   t += errorText(e) + "\n";
   if (!r.s("noise").empty()) {
     // Two independent simulations differ by √2 × the noise of one: that is A's own floor. B's
     // error in excess of it adds in quadrature (independent errors).
     std::unique_ptr<Decoder> N;
-    collectively(comm, [&] { N = openBtf(r.s("noise")); });
+    collectively(comm, [&] { N = openBtfLevel(r.s("noise"), level, budget, false, c.ctx.cancel); });
     const ErrorReport f = compareBtfs(*A, *N, c.progress(), 0, c.ctx.cancel, &comm);
     const double floorRmse = f.rmse / std::sqrt(2.0), floorRel = f.relRmse / std::sqrt(2.0);
     const double excessRel = std::sqrt(std::max(0.0, e.relRmse * e.relRmse - floorRel * floorRel));
@@ -157,13 +222,15 @@ void compare(const Call& c) {
 
 void exportBtf(const Call& c) {
   const Request& r = c.r;
-  const auto d = openBtf(r.s("input"));
+  const auto d = openBtfLevel(r.s("input"), r.i("level"), parseBytes(r.s("memory_budget")),
+                              c.progress(), c.ctx.cancel);
   const std::string& fmt = r.s("format");
   const std::string& out = r.s("output");
   json& j = c.rep.json;
   j["input"] = r.s("input");
   j["format"] = fmt;
   j["output"] = out;
+  j["level"] = r.i("level");
   c.rep.outputs.push_back(out);
   if (fmt == "ubo2003") {
     const int64_t n = exportUbo2003(*d, out, c.progress(), c.ctx.cancel);
@@ -267,6 +334,25 @@ void info(const Call& c) {
                 I.sceneName.c_str(), I.sceneHash.c_str(), I.nu, I.nv, I.directionSet.c_str(),
                 I.nDirs());
     t += "  params       " + b.paramsJson + "\n  stats        " + b.statsJson + "\n";
+    if (!b.levels.empty()) {
+      // A pyramid: its levels, with the error compress measured for each.
+      const json st = json::parse(b.statsJson);
+      const json errs = st.contains("levels") ? st["levels"] : json::array();
+      json lv = json::array();
+      for (size_t k = 0; k < b.levels.size(); ++k) {
+        const MipLevel& l = b.levels[k];
+        const double e =
+            k < errs.size() && errs[k].is_object() ? errs[k].value("relative_rmse", -1.0) : -1.0;
+        lv.push_back({{"level", k},
+                      {"texels", {l.nu, l.nv}},
+                      {"first", l.first},
+                      {"relative_rmse", e >= 0 ? json(e) : json(nullptr)}});
+        t += format("  level %-6zu %d x %d texels from texel %lld%s\n", k, l.nu, l.nv,
+                    (long long)l.first,
+                    e >= 0 ? format(", relative RMSE %.3f %%", 100 * e).c_str() : "");
+      }
+      j["levels"] = lv;
+    }
     for (const auto& x : b.arrays)
       t += format("  array        %-18s %lld x %lld %s\n", x.name.c_str(), (long long)x.rows,
                   (long long)x.cols, x.type == ArrayType::F16 ? "f16" : "f32");
@@ -369,7 +455,8 @@ void info(const Call& c) {
 
 void slice(const Call& c) {
   const Request& r = c.r;
-  const auto d = openBtf(r.s("btf"));
+  const auto d = openBtfLevel(r.s("btf"), r.i("level"), parseBytes(r.s("memory_budget")),
+                              c.progress(), c.ctx.cancel);
   const BtfInfo& I = d->info();
   const DirectionSet dirs = DirectionSet::fromName(I.directionSet);
   if (dirs.size() != I.nDirs())
@@ -389,12 +476,14 @@ void slice(const Call& c) {
   j["input"] = r.s("btf");
   j["output"] = out;
   j["light_theta_phi_deg"] = {tl, pl};
+  j["level"] = r.i("level");
   c.rep.outputs.push_back(out);
   ImageMetadata meta = {{"units", "aBRDF, 1/sr, linear RGB"},
                         {"light_theta_phi_deg", format("%.10g,%.10g", tl, pl)},
                         {"scene", I.sceneName},
                         {"scene_hash", I.sceneHash},
-                        {"source", r.s("btf")}};
+                        {"source", r.s("btf")},
+                        {"texel_level", std::to_string(r.i("level"))}};
   if (!view.empty()) {
     double tv, pv;
     parseAnglePair(view, "--view", &tv, &pv);

@@ -59,6 +59,29 @@ void writeSideBySide(const std::string& path, const std::vector<const RenderImag
   writeRgbImage(path, W, h, out, scale, false);
 }
 
+// The texel footprints of a flat or mapped image: median area in level-0 texels (of a pixel's
+// samples, each a 1/spp share of the pixel) and the share of pixels at each level.
+json footprintJson(const RenderImage& img) {
+  std::vector<float> area;
+  std::vector<int64_t> hist;
+  for (size_t k = 0; k < img.lod.size(); ++k) {
+    if (img.lod[k] < 0) continue;
+    area.push_back(img.footprintTexels[k]);
+    const size_t l = size_t(std::max(0.f, img.lod[k]) + 0.5f);
+    if (hist.size() <= l) hist.resize(l + 1, 0);
+    ++hist[l];
+  }
+  json j;
+  j["pixels"] = area.size();
+  if (area.empty()) return j;
+  std::nth_element(area.begin(), area.begin() + ptrdiff_t(area.size() / 2), area.end());
+  j["median_texels_per_sample"] = area[area.size() / 2];
+  json h = json::array();
+  for (int64_t n : hist) h.push_back(double(n) / double(area.size()));
+  j["level_share"] = h;
+  return j;
+}
+
 }  // namespace
 
 void render(const Call& c) {
@@ -85,6 +108,13 @@ void render(const Call& c) {
   s.reliefScale = r.f("relief_scale");
   s.bounces = r.i("bounces");
   s.seed = uint64_t(r.i("seed"));
+  s.mip = r.s("filter") == "mip";
+  s.forceLevel = r.i("mip_level");
+  s.showLevel = r.b("show_level");
+  s.maxAniso = r.i("max_aniso");
+  if (s.showLevel && mode != "flat" && mode != "mapped")
+    throw Error("--show-level draws the texel levels of --mode flat or mapped (got '" + mode +
+                "')");
   const uint64_t budget = parseBytes(r.s("memory_budget"));
 
   // The tile: the BTF's embedded scene, or a scene file (exact only).
@@ -112,7 +142,11 @@ void render(const Call& c) {
   const bool flatTile = tile.zmax - tile.zmin <= 1e-9f * float(std::max(tile.Lx, tile.Ly)) &&
                         std::abs(tile.zmax) <= 1e-9f * float(std::max(tile.Lx, tile.Ly));
   if (needBtf) {
-    btf = std::make_unique<BtfSampler>(input, r.s("vmf"), flatTile, budget, c.ctx.cancel);
+    btf = std::make_unique<BtfSampler>(input, r.s("vmf"), flatTile, budget, c.ctx.cancel,
+                                       s.mip || s.forceLevel >= 0);
+    if (s.forceLevel >= btf->levels())
+      throw Error(format("--mip-level %d: %s has levels 0..%d", s.forceLevel, input.c_str(),
+                         btf->levels() - 1));
     if (s.environment > 0) btf->prepareAmbient(c.ctx.cancel);
     if ((mode == "mapped" || mode == "all") && !btf->hasVmf() && !flatTile)
       throw Error(input + " has no visibility map, and the mapped mode needs one for a relief " +
@@ -134,6 +168,14 @@ void render(const Call& c) {
   j["spp"] = s.spp;
   j["tiling"] = s.tiling;
   j["relief_scale"] = s.reliefScale;
+  j["filter"] = r.s("filter");
+  if (btf)
+    j["texel_levels"] = {{"count", btf->levels()},
+                         {"from", btf->levels() == 1  ? "none"
+                                  : btf->fileLevels() ? "file"
+                                                      : "box filtered"},
+                         {"forced", s.forceLevel},
+                         {"max_aniso", s.maxAniso}};
   j["camera_theta_phi_deg"] = {s.camTheta, s.camPhi};
   j["light_theta_phi_deg"] = {s.lightTheta, s.lightPhi};
   j["irradiance"] = s.irradiance;
@@ -197,6 +239,7 @@ void render(const Call& c) {
     e["rays"] = img.rays;
     e["triangles"] = img.triangles;
     e["samples_per_second"] = img.seconds > 0 ? double(img.samples) / img.seconds : 0.0;
+    if (m != "exact") e["footprint"] = footprintJson(img);
     std::string file = output;
     if (mode == "all") {
       const fs::path o(output);

@@ -1,5 +1,6 @@
 #include <btf/compress/cbtf.h>
 #include <btf/compress/codec.h>
+#include <btf/compress/mip.h>
 #include <btf/core/error.h>
 #include <btf/core/format.h>
 #include <btf/core/run_context.h>
@@ -45,16 +46,42 @@ double cross2(const glm::dvec2& a, const glm::dvec2& b) {
 
 // ---------------------------------------------------------------------------------- sampler
 
+Rgb levelColour(double level) {
+  static const Rgb ramp[6] = {{0.1f, 0.2f, 1.f}, {0.f, 0.9f, 0.9f}, {0.1f, 0.9f, 0.1f},
+                              {1.f, 0.9f, 0.f},  {1.f, 0.15f, 0.f}, {0.9f, 0.f, 0.9f}};
+  const double l = std::clamp(level, 0.0, 5.0);
+  const int k = std::min(4, int(l));
+  const float f = float(l - k);
+  return (1 - f) * ramp[k] + f * ramp[k + 1];
+}
+
 BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool flatTile,
-                       uint64_t memoryBudget, const CancelToken* cancel)
+                       uint64_t memoryBudget, const CancelToken* cancel, bool mip)
     : m_flat(flatTile) {
   const bool compressed = isCompressedFile(path);
-  m_dec = openBtf(path);
-  const BtfInfo& I = m_dec->info();
+  std::unique_ptr<Decoder> dec;
+  std::shared_ptr<const Decoder> strip;  // a pyramid .cbtf: every level's texels
+  BtfInfo base;
+  if (compressed) {
+    CompressedBtf c = readCompressed(path);
+    if (!c.levels.empty()) {
+      base = c.info;
+      c.info = pyramidInfo(base);
+      c.levels.clear();
+      strip = makeDecoder(std::move(c));
+      dec = pyramidLevel(strip, base, 0);
+    } else {
+      dec = makeDecoder(std::move(c));
+    }
+  } else {
+    dec = openBtf(path);
+  }
+  const BtfInfo I = dec->info();
   m_dirs = std::make_shared<DirectionSet>(DirectionSet::fromName(I.directionSet));
   if (m_dirs->size() != I.nDirs())
     throw Error(path + ": the direction set of the file does not match its header");
   m_nu = I.nu, m_nv = I.nv, m_n = I.nDirs(), m_Lx = I.Lx, m_Ly = I.Ly;
+  const size_t per = size_t(m_n) * size_t(m_n) * 3;
   auto loadVmf = [&](const BtfReader& r) {
     m_vmf.reserve(size_t(m_n) * size_t(I.texels()) * 2);
     for (int d = 0; d < m_n; ++d) {
@@ -64,13 +91,22 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
       m_vmf.insert(m_vmf.end(), v.begin(), v.end());
     }
   };
+  const std::vector<MipLevel> L = mipLevels(I.nu, I.nv);
+  const int K = mip ? int(L.size()) - 1 : 0;  // coarse levels wanted
+  const uint64_t bytes = uint64_t(I.texels()) * I.texelBytes();
+  const uint64_t coarseBytes = uint64_t(pyramidTexels(L) - I.texels()) * I.texelBytes();
+  auto clean = [](float* p, size_t n) {
+    for (size_t k = 0; k < n; ++k)
+      if (!std::isfinite(p[k]) || p[k] < 0) p[k] = 0;
+  };
   if (!compressed) {
-    const uint64_t bytes = uint64_t(I.texels()) * I.texelBytes();
-    if (bytes > memoryBudget)
-      throw Error(
-          format("%s: its %.1f MiB of values exceed the memory budget (%.1f MiB); raise "
-                 "--memory-budget or render a compressed copy (.cbtf)",
-                 path.c_str(), double(bytes) / 1048576.0, double(memoryBudget) / 1048576.0));
+    if (bytes + (K ? coarseBytes : 0) > memoryBudget)
+      throw Error(format(
+          "%s: its %.1f MiB of values%s exceed the memory budget (%.1f MiB); raise "
+          "--memory-budget or render a compressed copy (.cbtf)",
+          path.c_str(), double(bytes) / 1048576.0,
+          K ? format(" and %.1f MiB of texel levels", double(coarseBytes) / 1048576.0).c_str() : "",
+          double(memoryBudget) / 1048576.0));
     BtfReader r(path);
     m_data.resize(size_t(bytes / sizeof(float)));
     for (int c = 0; c < I.chunks(); ++c) {
@@ -79,28 +115,62 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
       std::copy(v.begin(), v.end(),
                 m_data.begin() + ptrdiff_t(uint64_t(I.chunkBegin(c)) * I.texelBytes() / 4));
     }
-    for (float& x : m_data)
-      if (!std::isfinite(x) || x < 0) x = 0;
+    clean(m_data.data(), m_data.size());
     if (I.hasVmf) loadVmf(r);
-  } else {
+  } else if (bytes + (K ? coarseBytes : 0) <= memoryBudget / 2) {
     // A compressed BTF is decoded whole when it fits (a render reads each value many times, and
     // a texel's decode shares its work across its values); per value through the decoder
     // otherwise.
-    const uint64_t bytes = uint64_t(I.texels()) * I.texelBytes();
-    if (bytes <= memoryBudget / 2) {
-      m_data.resize(size_t(bytes / sizeof(float)));
-      const size_t per = size_t(I.nDirs()) * size_t(I.nDirs()) * 3;
-      parallelForChunks(
-          I.texels(), 16,
-          [&](int64_t t0, int64_t t1) {
-            for (int64_t t = t0; t < t1; ++t) m_dec->texel(t, &m_data[size_t(t) * per]);
-          },
-          cancel);
-      throwIfCancelled(cancel, "render");
-      for (float& x : m_data)
-        if (!std::isfinite(x) || x < 0) x = 0;
+    m_data.resize(size_t(bytes / sizeof(float)));
+    parallelForChunks(
+        I.texels(), 16,
+        [&](int64_t t0, int64_t t1) {
+          for (int64_t t = t0; t < t1; ++t) dec->texel(t, &m_data[size_t(t) * per]);
+        },
+        cancel);
+    throwIfCancelled(cancel, "render");
+    clean(m_data.data(), m_data.size());
+  }
+  m_lv.resize(size_t(K) + 1);
+  m_lv[0].nu = m_nu, m_lv[0].nv = m_nv;
+  m_lv[0].data = m_data.empty() ? nullptr : m_data.data();
+  if (K > 0) {
+    m_fileLevels = strip != nullptr;
+    if (m_fileLevels) {
+      // The file's own levels, decoded whole alongside level 0, or read per value.
+      if (!m_data.empty()) m_coarse.resize(size_t(coarseBytes / sizeof(float)));
+      for (int k = 1; k <= K; ++k) {
+        auto lk = pyramidLevel(strip, base, k);
+        if (m_data.empty()) {
+          m_lv[size_t(k)].dec = std::move(lk);
+          continue;
+        }
+        float* out = m_coarse.data() + size_t(L[size_t(k)].first - I.texels()) * per;
+        parallelForChunks(
+            L[size_t(k)].texels(), 16,
+            [&](int64_t t0, int64_t t1) {
+              for (int64_t t = t0; t < t1; ++t) lk->texel(t, out + size_t(t) * per);
+            },
+            cancel);
+        throwIfCancelled(cancel, "render");
+      }
+      clean(m_coarse.data(), m_coarse.size());
+    } else {
+      if (m_data.empty())
+        throw Error(
+            format("%s: texel levels need its values decoded in memory (%.1f MiB with "
+                   "the levels, over half the memory budget): raise --memory-budget, "
+                   "compress it with --mip, or render with --filter point",
+                   path.c_str(), double(bytes + coarseBytes) / 1048576.0));
+      m_coarse = buildCoarseLevels(m_data.data(), I, K, cancel);
+    }
+    for (int k = 1; k <= K; ++k) {
+      m_lv[size_t(k)].nu = L[size_t(k)].nu, m_lv[size_t(k)].nv = L[size_t(k)].nv;
+      if (!m_coarse.empty())
+        m_lv[size_t(k)].data = m_coarse.data() + size_t(L[size_t(k)].first - I.texels()) * per;
     }
   }
+  m_lv[0].dec = std::move(dec);
   if (m_vmf.empty() && !vmfPath.empty()) {
     BtfReader r(vmfPath);
     const BtfInfo& V = r.info();
@@ -115,56 +185,121 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
     loadVmf(r);
   }
   m_hasVmf = !m_vmf.empty();
+  if (m_hasVmf && K > 0) {
+    auto v = vmfLevels(m_vmf, m_n, m_nu, m_nv, K);
+    for (int k = 1; k <= K; ++k) m_lv[size_t(k)].vmf = std::move(v[size_t(k - 1)]);
+  }
 }
 
 BtfSampler::~BtfSampler() = default;
 
 const BtfInfo& BtfSampler::info() const {
-  return m_dec->info();
+  return m_lv[0].dec->info();
 }
 
 uint64_t BtfSampler::memoryBytes() const {
-  return (m_data.size() + m_vmf.size() + m_ambient.size()) * sizeof(float);
+  uint64_t n = m_data.size() + m_coarse.size() + m_vmf.size() + m_ambient.size();
+  for (const Level& l : m_lv) n += l.vmf.size();
+  return n * sizeof(float);
 }
 
-Rgb BtfSampler::value(int64_t texel, int view, int light) const {
-  if (!m_data.empty()) {
-    const float* p = &m_data[size_t(((texel * m_n + view) * m_n + light) * 3)];
+Rgb BtfSampler::value(int level, int64_t texel, int view, int light) const {
+  const Level& L = m_lv[size_t(level)];
+  if (L.data) {
+    const float* p = L.data + size_t(((texel * m_n + view) * m_n + light) * 3);
     return {p[0], p[1], p[2]};
   }
-  const auto v = m_dec->value(texel, view, light);
+  const auto v = L.dec->value(texel, view, light);
   return {v[0], v[1], v[2]};
 }
 
 template <class Fn>
-void BtfSampler::bilinear(double x, double y, Fn&& fn) const {
-  // Texel centres at integer + ½ (in texel units), periodic.
-  const double fx = x / m_Lx * m_nu - 0.5, fy = y / m_Ly * m_nv - 0.5;
+void BtfSampler::bilinear(int level, double x, double y, Fn&& fn) const {
+  // Texel centres at integer + ½ (in the level's texel units), periodic.
+  const int nu = m_lv[size_t(level)].nu, nv = m_lv[size_t(level)].nv;
+  const double fx = x / m_Lx * nu - 0.5, fy = y / m_Ly * nv - 0.5;
   const double x0 = std::floor(fx), y0 = std::floor(fy);
   const double ax = fx - x0, ay = fy - y0;
   for (int j = 0; j < 2; ++j)
     for (int i = 0; i < 2; ++i) {
       const double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
-      if (w > 0) fn(wrapIndex(x0 + i, m_nu) + int64_t(m_nu) * wrapIndex(y0 + j, m_nv), w);
+      if (w > 0) fn(wrapIndex(x0 + i, nu) + int64_t(nu) * wrapIndex(y0 + j, nv), w);
     }
 }
 
-Rgb BtfSampler::eval(double x, double y, const DVec3& wo, const DVec3& wi) const {
+BtfSampler::Footprint BtfSampler::footprint(const glm::dvec2& dx, const glm::dvec2& dy,
+                                            int maxAniso) const {
+  Footprint f;
+  const double top = double(levels() - 1);
+  if (top <= 0) return f;
+  // Lengths in level-0 texels.
+  const glm::dvec2 a(dx.x / m_Lx * m_nu, dx.y / m_Ly * m_nv),
+      b(dy.x / m_Lx * m_nu, dy.y / m_Ly * m_nv);
+  const double la = glm::length(a), lb = glm::length(b);
+  if (!std::isfinite(la) || !std::isfinite(lb)) {
+    f.lod = top;
+    return f;
+  }
+  const bool aLong = la >= lb;
+  const double major = aLong ? la : lb, minor = aLong ? lb : la;
+  const int nMinor = std::clamp(int(std::ceil(minor)), 1, 2);
+  const double cell = std::max(minor / nMinor, 1e-12);
+  const int nMajor =
+      std::clamp(int(std::ceil(major / cell - 1e-9)), 1, std::max(1, maxAniso) * nMinor);
+  const double width = std::max(major / nMajor, minor / nMinor);
+  f.lod = std::clamp(std::log2(std::max(width, 1e-12)), 0.0, top);
+  if (major <= 1) return f;  // within a texel: one bilinear tap
+  f.a = dx, f.b = dy;
+  f.na = aLong ? nMajor : nMinor;
+  f.nb = aLong ? nMinor : nMajor;
+  return f;
+}
+
+template <class Fn>
+void BtfSampler::filtered(double x, double y, const Footprint* fp, Fn&& fn) const {
+  if (!fp || levels() == 1) {
+    fn(0, x, y, 1.0);
+    return;
+  }
+  const int top = levels() - 1;
+  const double lod = std::clamp(fp->lod, 0.0, double(top));
+  const int l0 = std::min(int(lod), top), l1 = std::min(l0 + 1, top);
+  const double f = lod - l0;
+  const int na = std::max(1, fp->na), nb = std::max(1, fp->nb);
+  const double share = 1.0 / (double(na) * nb);
+  for (int j = 0; j < nb; ++j)
+    for (int i = 0; i < na; ++i) {
+      const double sa = (i + 0.5) / na - 0.5, sb = (j + 0.5) / nb - 0.5;
+      const double px = x + sa * fp->a.x + sb * fp->b.x, py = y + sa * fp->a.y + sb * fp->b.y;
+      if (f < 1) fn(l0, px, py, (1 - f) * share);
+      if (f > 0 && l1 != l0) fn(l1, px, py, f * share);
+    }
+}
+
+Rgb BtfSampler::eval(double x, double y, const DVec3& wo, const DVec3& wi,
+                     const Footprint* fp) const {
   DirWeight wv[4], wl[4];
   const int nv = interp(*m_dirs, wo, wv), nl = interp(*m_dirs, wi, wl);
   Rgb acc(0);
-  bilinear(x, y, [&](int64_t t, double w) {
-    for (int a = 0; a < nv; ++a)
-      for (int b = 0; b < nl; ++b)
-        acc += float(w * wv[a].weight * wl[b].weight) * value(t, wv[a].index, wl[b].index);
+  filtered(x, y, fp, [&](int level, double px, double py, double lw) {
+    bilinear(level, px, py, [&](int64_t t, double w) {
+      for (int a = 0; a < nv; ++a)
+        for (int b = 0; b < nl; ++b)
+          acc += float(lw * w * wv[a].weight * wl[b].weight) *
+                 value(level, t, wv[a].index, wl[b].index);
+    });
   });
   return acc;
 }
 
 void BtfSampler::prepareAmbient(const CancelToken* cancel) {
   if (!m_ambient.empty()) return;
-  const int64_t texels = int64_t(m_nu) * m_nv;
-  m_ambient.assign(size_t(texels) * size_t(m_n) * 3, 0.f);
+  size_t total = 0;
+  for (Level& l : m_lv) {
+    l.ambient = total;
+    total += size_t(l.nu) * size_t(l.nv) * size_t(m_n) * 3;
+  }
+  m_ambient.assign(total, 0.f);
   // Each light direction weighs the cosine-weighted solid angle of its ring's band (edges
   // halfway to the neighbouring rings, 0° and 90° at the ends) shared by the ring's count:
   // π(sin²θhi − sin²θlo)/count — they sum to π, exactly the integral of a constant aBRDF.
@@ -177,61 +312,70 @@ void BtfSampler::prepareAmbient(const CancelToken* cancel) {
         kPi * (std::sin(hi) * std::sin(hi) - std::sin(lo) * std::sin(lo)) / double(rings[k].count);
     for (int j = 0; j < rings[k].count; ++j) lw[size_t(rings[k].first + j)] = w;
   }
-  parallelForChunks(
-      texels, 16,
-      [&](int64_t t0, int64_t t1) {
-        std::vector<float> buf(m_data.empty() ? size_t(m_n) * size_t(m_n) * 3 : 0);
-        for (int64_t t = t0; t < t1; ++t) {
-          const float* px = nullptr;
-          if (m_data.empty()) {
-            m_dec->texel(t, buf.data());
-            px = buf.data();
-          } else {
-            px = &m_data[size_t(t) * size_t(m_n) * size_t(m_n) * 3];
-          }
-          for (int v = 0; v < m_n; ++v) {
-            double acc[3] = {0, 0, 0};
-            for (int l = 0; l < m_n; ++l)
+  const size_t per = size_t(m_n) * size_t(m_n) * 3;
+  for (const Level& L : m_lv)
+    parallelForChunks(
+        int64_t(L.nu) * L.nv, 16,
+        [&](int64_t t0, int64_t t1) {
+          std::vector<float> buf(L.data ? 0 : per);
+          for (int64_t t = t0; t < t1; ++t) {
+            const float* px = nullptr;
+            if (!L.data) {
+              L.dec->texel(t, buf.data());
+              px = buf.data();
+            } else {
+              px = L.data + size_t(t) * per;
+            }
+            for (int v = 0; v < m_n; ++v) {
+              double acc[3] = {0, 0, 0};
+              for (int l = 0; l < m_n; ++l)
+                for (int c = 0; c < 3; ++c)
+                  acc[c] += lw[size_t(l)] *
+                            double(px[(size_t(v) * size_t(m_n) + size_t(l)) * 3 + size_t(c)]);
               for (int c = 0; c < 3; ++c)
-                acc[c] += lw[size_t(l)] *
-                          double(px[(size_t(v) * size_t(m_n) + size_t(l)) * 3 + size_t(c)]);
-            for (int c = 0; c < 3; ++c)
-              m_ambient[(size_t(t) * size_t(m_n) + size_t(v)) * 3 + size_t(c)] =
-                  std::isfinite(acc[c]) ? float(std::max(acc[c], 0.0)) : 0.f;
+                m_ambient[L.ambient + (size_t(t) * size_t(m_n) + size_t(v)) * 3 + size_t(c)] =
+                    std::isfinite(acc[c]) ? float(std::max(acc[c], 0.0)) : 0.f;
+            }
           }
-        }
-      },
-      cancel);
+        },
+        cancel);
   throwIfCancelled(cancel, "render");
 }
 
-Rgb BtfSampler::ambient(double x, double y, const DVec3& wo) const {
+Rgb BtfSampler::ambient(double x, double y, const DVec3& wo, const Footprint* fp) const {
   DirWeight wv[4];
   const int nv = interp(*m_dirs, wo, wv);
   Rgb acc(0);
-  bilinear(x, y, [&](int64_t t, double w) {
-    for (int a = 0; a < nv; ++a) {
-      const float* p = &m_ambient[(size_t(t) * size_t(m_n) + size_t(wv[a].index)) * 3];
-      acc += float(w * wv[a].weight) * Rgb(p[0], p[1], p[2]);
-    }
+  filtered(x, y, fp, [&](int level, double px, double py, double lw) {
+    const size_t base = m_lv[size_t(level)].ambient;
+    bilinear(level, px, py, [&](int64_t t, double w) {
+      for (int a = 0; a < nv; ++a) {
+        const float* p = &m_ambient[base + (size_t(t) * size_t(m_n) + size_t(wv[a].index)) * 3];
+        acc += float(lw * w * wv[a].weight) * Rgb(p[0], p[1], p[2]);
+      }
+    });
   });
   return acc;
 }
 
-void BtfSampler::vmf(double x, double y, const DVec3& w, float* coverage, float* height) const {
+void BtfSampler::vmf(double x, double y, const DVec3& w, float* coverage, float* height,
+                     int level) const {
   if (!m_hasVmf) {  // a flat tile: the reference plane itself
     *coverage = 1, *height = 0;
     return;
   }
+  level = std::clamp(level, 0, levels() - 1);
+  const Level& L = m_lv[size_t(level)];
+  const float* map = level == 0 ? m_vmf.data() : L.vmf.data();
   const int64_t t =
-      wrapIndex(x / m_Lx * m_nu, m_nu) + int64_t(m_nu) * wrapIndex(y / m_Ly * m_nv, m_nv);
-  const int64_t texels = int64_t(m_nu) * m_nv;
+      wrapIndex(x / m_Lx * L.nu, L.nu) + int64_t(L.nu) * wrapIndex(y / m_Ly * L.nv, L.nv);
+  const int64_t texels = int64_t(L.nu) * L.nv;
   double cov = 0, hs = 0;
   DirWeight ws[4];
   const int n = interp(*m_dirs, w, ws);
   for (int k = 0; k < n; ++k) {
     const DirWeight& d = ws[k];
-    const float* p = &m_vmf[size_t((int64_t(d.index) * texels + t) * 2)];
+    const float* p = map + size_t((int64_t(d.index) * texels + t) * 2);
     const double c = std::clamp(double(p[0]), 0.0, 1.0);
     cov += d.weight * c;
     hs += d.weight * c * double(p[1]) * (*m_dirs)[d.index].w.z;
@@ -495,9 +639,13 @@ RenderImage RenderScene::renderWith(const std::string& mode, const CancelToken* 
   img.width = m_s.width, img.height = m_s.height;
   img.rgb.assign(size_t(img.width) * size_t(img.height) * 3, 0.f);
   img.alpha.assign(size_t(img.width) * size_t(img.height), 0.f);
+  img.lod.assign(img.alpha.size(), -1.f);
+  img.footprintTexels.assign(img.alpha.size(), 0.f);
   const Camera cam = camera();
   std::atomic<uint64_t> rays{0};
   const int spp = std::max(1, m_s.spp);
+  const double step = 2.0 / std::sqrt(double(spp));  // sample spacing in screen units × size
+  const int grid = int(std::sqrt(double(spp)) + 1e-9);
   parallelForChunks(
       img.height, 1,
       [&](int64_t j0, int64_t j1) {
@@ -506,24 +654,41 @@ RenderImage RenderScene::renderWith(const std::string& mode, const CancelToken* 
           for (int i = 0; i < img.width; ++i) {
             const uint64_t pix = uint64_t(j) * uint64_t(img.width) + uint64_t(i);
             Rgb sum(0);
-            int covered = 0;
+            int covered = 0, looked = 0;
+            double lodSum = 0, texSum = 0;
             for (int s = 0; s < spp; ++s) {
               Rng rng(hashKeys(m_s.seed ^ 0x4e6d, pix, uint64_t(s)));
-              const double jx = spp == 1 ? 0.5 : rng.uniformDouble();
-              const double jy = spp == 1 ? 0.5 : rng.uniformDouble();
+              // Stratified: the first g² samples jittered in a g × g grid over the pixel.
+              double jx = 0.5, jy = 0.5;
+              if (spp > 1) {
+                jx = rng.uniformDouble(), jy = rng.uniformDouble();
+                if (s < grid * grid) jx = (s % grid + jx) / grid, jy = (s / grid + jy) / grid;
+              }
               const double sx = (i + jx) / img.width * 2 - 1;
               const double sy = 1 - (double(j) + jy) / img.height * 2;
               DVec3 o, d;
               cam.ray(sx, sy, &o, &d);
+              // The neighbouring samples' rays, one sample spacing (a pixel / √spp) away.
+              RayDiff diff;
+              {
+                DVec3 ox, dx, oy, dy;
+                cam.ray(sx + step / img.width, sy, &ox, &dx);
+                cam.ray(sx, sy - step / img.height, &oy, &dy);
+                diff.dox = ox - o, diff.ddx = dx - d, diff.doy = oy - o, diff.ddy = dy - d;
+              }
               Rgb c(0);
-              if (shade(o, d, rng, &c, &myRays)) {
+              SampleInfo info;
+              if (shade(o, d, diff, rng, &c, &myRays, &info)) {
                 ++covered;
+                if (info.lod >= 0) lodSum += info.lod, texSum += info.texels, ++looked;
                 if (std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z))
                   sum += glm::max(c, Rgb(0));
               }
             }
             for (int k = 0; k < 3; ++k) img.rgb[pix * 3 + size_t(k)] = sum[k] / float(spp);
             img.alpha[pix] = float(covered) / float(spp);
+            img.lod[pix] = looked ? float(lodSum / looked) : -1.f;
+            img.footprintTexels[pix] = looked ? float(texSum / looked) : 0.f;
           }
           if (progress) progress->add(1);
         }
@@ -537,13 +702,59 @@ RenderImage RenderScene::renderWith(const std::string& mode, const CancelToken* 
   return img;
 }
 
+void RenderScene::SampleInfo::set(const BtfSampler::Footprint& fp, const BtfSampler& btf) {
+  lod = fp.lod;
+  // |a × b| in level-0 texels (a point lookup: one texel).
+  const BtfInfo& I = btf.info();
+  const double sx = I.nu / I.Lx, sy = I.nv / I.Ly;
+  texels = std::abs(fp.a.x * sx * fp.b.y * sy - fp.a.y * sy * fp.b.x * sx);
+}
+
+BtfSampler::Footprint RenderScene::footprintAt(uint32_t tri, const DVec3& p, const DVec3& o,
+                                               const DVec3& d, const RayDiff& diff,
+                                               const BtfSampler& btf) const {
+  BtfSampler::Footprint fp;
+  if (m_s.forceLevel >= 0) {
+    fp.lod = std::min(m_s.forceLevel, btf.levels() - 1);
+    return fp;
+  }
+  // The neighbours' rays meet the triangle's plane at p + dp (tangent-plane transfer, Igehy's
+  // ray differentials); the triangle's texture map turns dp into tile units.
+  const auto& tr = m_obj.tri[tri];
+  const DVec3 p0(m_obj.pos[tr.x]), e1 = DVec3(m_obj.pos[tr.y]) - p0,
+                                   e2 = DVec3(m_obj.pos[tr.z]) - p0;
+  const glm::dvec2 t0(m_obj.uv[tr.x]), q1 = glm::dvec2(m_obj.uv[tr.y]) - t0,
+                                       q2 = glm::dvec2(m_obj.uv[tr.z]) - t0;
+  const double det = q1.x * q2.y - q1.y * q2.x;
+  const DVec3 n = glm::cross(e1, e2);
+  const double T = m_s.tiling * m_Lx;
+  auto transfer = [&](const DVec3& dox, const DVec3& ddx) -> glm::dvec2 {
+    const DVec3 o2 = o + dox, d2 = d + ddx;
+    const double den = glm::dot(d2, n);
+    if (!(std::abs(den) > 1e-300) || !(std::abs(det) > 1e-300))
+      return glm::dvec2(std::numeric_limits<double>::infinity());
+    const DVec3 dp = o2 + d2 * (glm::dot(p - o2, n) / den) - p;
+    // dp = α e1 + β e2 in the plane; (du, dv) = α q1 + β q2.
+    const double g11 = glm::dot(e1, e1), g12 = glm::dot(e1, e2), g22 = glm::dot(e2, e2);
+    const double r1 = glm::dot(dp, e1), r2 = glm::dot(dp, e2), gd = g11 * g22 - g12 * g12;
+    if (!(gd > 0)) return glm::dvec2(std::numeric_limits<double>::infinity());
+    const double a = (r1 * g22 - r2 * g12) / gd, b = (r2 * g11 - r1 * g12) / gd;
+    return (a * q1 + b * q2) * T;
+  };
+  const glm::dvec2 dx = transfer(diff.dox, diff.ddx), dy = transfer(diff.doy, diff.ddy);
+  if (m_s.mip && btf.levels() > 1) return btf.footprint(dx, dy, m_s.maxAniso);
+  if (std::isfinite(dx.x + dx.y + dy.x + dy.y)) fp.a = dx, fp.b = dy;  // one tap, level 0
+  return fp;
+}
+
 RenderImage RenderScene::renderFlat(const BtfSampler& btf, const CancelToken* cancel,
                                     ProgressReporter* progress) const {
   const double T = m_s.tiling * m_Lx;
   const float E = float(m_s.irradiance), Lenv = float(m_s.environment);
   RenderImage img = renderWith(
       "flat", cancel, progress,
-      [&](const DVec3& o, const DVec3& d, Rng&, Rgb* out, uint64_t* rays) {
+      [&](const DVec3& o, const DVec3& d, const RayDiff& diff, Rng&, Rgb* out, uint64_t* rays,
+          SampleInfo* info) {
         const MeshHit h = m_base->intersect(o, d);
         ++*rays;
         if (!h.hit()) return false;
@@ -564,13 +775,19 @@ RenderImage RenderScene::renderFlat(const BtfSampler& btf, const CancelToken* ca
         const DVec3 wo(glm::dot(-d, tx), glm::dot(-d, ty), glm::dot(-d, n));
         const DVec3 wi(glm::dot(m_light, tx), glm::dot(m_light, ty), glm::dot(m_light, n));
         if (wo.z <= 0) return true;
-        if (Lenv > 0) *out += Lenv * btf.ambient(uv.x * T, uv.y * T, glm::normalize(wo));
-        if (wi.z <= 0 || !(E > 0)) return true;
         const DVec3 p = o + d * h.t;
+        const BtfSampler::Footprint fp = footprintAt(t, p, o, d, diff, btf);
+        info->set(fp, btf);
+        if (m_s.showLevel) {
+          *out = levelColour(fp.lod);
+          return true;
+        }
+        if (Lenv > 0) *out += Lenv * btf.ambient(uv.x * T, uv.y * T, glm::normalize(wo), &fp);
+        if (wi.z <= 0 || !(E > 0)) return true;
         ++*rays;
         if (m_base->occluded(p + ng * m_eps, m_light, m_eps)) return true;
-        *out +=
-            E * float(wi.z) * btf.eval(uv.x * T, uv.y * T, glm::normalize(wo), glm::normalize(wi));
+        *out += E * float(wi.z) *
+                btf.eval(uv.x * T, uv.y * T, glm::normalize(wo), glm::normalize(wi), &fp);
         return true;
       });
   img.triangles = m_baseKept.size();
@@ -624,14 +841,14 @@ DVec3 RenderScene::tileDir(int prism, const DVec3& t, const DVec3& d) const {
 
 bool RenderScene::segmentHit(int prism, const DVec3& tin, const DVec3& tout, const DVec3& pin,
                              const DVec3& pout, const DVec3& d, const BtfSampler& btf, Rng& rng,
-                             bool* ahead, MarchHit* hit) const {
+                             bool* ahead, MarchHit* hit, int vmfLevel) const {
   // The view direction in tile space from the prism map's Jacobian at the segment's middle
   // (the chord between entry and exit is ill-conditioned in a thin shell).
   const DVec3 w = tileDir(prism, 0.5 * (tin + tout), -d);
   if (!(w.z > 1e-9)) return false;          // rising or level in tile space: the VMF has no answer
   const DVec3 c = tin - (tin.z / w.z) * w;  // the line's crossing of the reference plane
   float cov, zh;
-  btf.vmf(c.x, c.y, w, &cov, &zh);
+  btf.vmf(c.x, c.y, w, &cov, &zh, vmfLevel);
   if (!(cov > 0)) return false;
   const double lo = std::min(tin.z, tout.z), hi = std::max(tin.z, tout.z);
   // The hit must lie within this segment's heights. Below, it is a later prism's (and `ahead`
@@ -691,10 +908,15 @@ bool RenderScene::nextFace(int prism, const DVec3& o, const DVec3& d, double tmi
 
 RenderScene::MarchResult RenderScene::march(const DVec3& o, const DVec3& d, double tmin,
                                             const BtfSampler& btf, Rng& rng, MarchHit* hit,
-                                            uint64_t* rays) const {
+                                            uint64_t* rays, const RayDiff* diff) const {
   double tnear = tmin;
   int cur = -1;
   bool ahead = false;
+  // The VMF's level: the footprint's where the camera ray enters the shell (rounded down: the
+  // silhouette keeps the finest detail the footprint resolves); level 0 for light rays.
+  int vmfLevel = m_s.forceLevel >= 0 ? m_s.forceLevel : 0;
+  BtfSampler::Footprint fp;
+  if (m_s.forceLevel >= 0) fp.lod = m_s.forceLevel;
   DVec3 tin(0), pin(0);
   for (int step = 0; step < 1 << 16; ++step) {
     MeshHit h;
@@ -709,14 +931,19 @@ RenderScene::MarchResult RenderScene::march(const DVec3& o, const DVec3& d, doub
     const DVec3 p = o + d * h.t;
     if (from >= 0 && from == cur) {
       const DVec3 tout = tileCoords(f, from, h.u, h.v);
-      if (segmentHit(from, tin, tout, pin, p, d, btf, rng, &ahead, hit)) {
+      if (segmentHit(from, tin, tout, pin, p, d, btf, rng, &ahead, hit, vmfLevel)) {
         hit->prism = from;
+        hit->fp = fp;
         return kRelief;
       }
     }
     if (to >= 0) {
       if (cur < 0 && f.kind == 1) return kAbsorbed;  // from inside the object: its underside
       if (cur < 0) ahead = false;                    // entering the shell from outside
+      if (cur < 0 && diff && m_s.forceLevel < 0) {
+        fp = footprintAt(m_prisms[size_t(to)].tri, p, o, d, *diff, btf);
+        vmfLevel = int(fp.lod);
+      }
       cur = to, tin = tileCoords(f, to, h.u, h.v), pin = p;
     } else {
       cur = -1;
@@ -771,19 +998,25 @@ bool RenderScene::lightAt(const MarchHit& hit, const BtfSampler& btf, Rng& rng, 
 RenderImage RenderScene::renderMapped(const BtfSampler& btf, const CancelToken* cancel,
                                       ProgressReporter* progress) const {
   const float E = float(m_s.irradiance), Lenv = float(m_s.environment);
-  RenderImage img =
-      renderWith("mapped", cancel, progress,
-                 [&](const DVec3& o, const DVec3& d, Rng& rng, Rgb* out, uint64_t* rays) {
-                   MarchHit hit;
-                   const MarchResult m = march(o, d, 0.0, btf, rng, &hit, rays);
-                   if (m == kMiss) return false;
-                   if (m == kAbsorbed) return true;
-                   if (Lenv > 0) *out += Lenv * btf.ambient(hit.crossing.x, hit.crossing.y, hit.wo);
-                   DVec3 wi;
-                   if (!(E > 0) || !lightAt(hit, btf, rng, &wi, rays)) return true;
-                   *out += E * float(wi.z) * btf.eval(hit.crossing.x, hit.crossing.y, hit.wo, wi);
-                   return true;
-                 });
+  RenderImage img = renderWith(
+      "mapped", cancel, progress,
+      [&](const DVec3& o, const DVec3& d, const RayDiff& diff, Rng& rng, Rgb* out, uint64_t* rays,
+          SampleInfo* info) {
+        MarchHit hit;
+        const MarchResult m = march(o, d, 0.0, btf, rng, &hit, rays, &diff);
+        if (m == kMiss) return false;
+        if (m == kAbsorbed) return true;
+        info->set(hit.fp, btf);
+        if (m_s.showLevel) {
+          *out = levelColour(hit.fp.lod);
+          return true;
+        }
+        if (Lenv > 0) *out += Lenv * btf.ambient(hit.crossing.x, hit.crossing.y, hit.wo, &hit.fp);
+        DVec3 wi;
+        if (!(E > 0) || !lightAt(hit, btf, rng, &wi, rays)) return true;
+        *out += E * float(wi.z) * btf.eval(hit.crossing.x, hit.crossing.y, hit.wo, wi, &hit.fp);
+        return true;
+      });
   img.triangles = m_faces.size();
   return img;
 }
@@ -996,7 +1229,8 @@ RenderImage RenderScene::renderExact(const TileGeometry& tile,
   const Vec3 L(m_light);
   RenderImage img = renderWith(
       "exact", cancel, progress,
-      [&](const DVec3& o, const DVec3& d, Rng& rng, Rgb* out, uint64_t* rays) {
+      [&](const DVec3& o, const DVec3& d, const RayDiff&, Rng& rng, Rgb* out, uint64_t* rays,
+          SampleInfo*) {
         MeshHit h = tracer.intersect(o, d);
         ++*rays;
         if (!h.hit()) return false;

@@ -51,7 +51,18 @@ struct RenderSettings {
   double reliefScale = 1;                  // multiplies the relief's heights on the object
   int bounces = 0;                         // exact: reflections per path (0 = unbounded, RR)
   uint64_t seed = 1;
+  // Texel levels (docs/mip.md): flat and mapped choose each sample's level from its footprint in
+  // texture space (ray differentials) and blend the two nearest (trilinear); an elongated
+  // footprint takes up to maxAniso taps along its long axis at the level of its short one.
+  bool mip = true;
+  int forceLevel = -1;     // ≥ 0: every lookup at this level (the VMF too), no footprint
+  bool showLevel = false;  // the chosen level in false colour instead of radiance
+  int maxAniso = 8;
 };
+
+/// False colour of a texel level (0 blue … 1 cyan … 2 green … 3 yellow … 4 red … ≥ 5 magenta,
+/// linear in between): what --show-level draws.
+Rgb levelColour(double level);
 
 /// A rendered image: RGB radiance (linear), coverage (fraction of the pixel's samples that met
 /// the object), row 0 at the top.
@@ -62,6 +73,9 @@ struct RenderImage {
   double seconds = 0;
   uint64_t samples = 0, rays = 0;  // rays: every Embree query
   uint64_t triangles = 0;          // what was traced: base, shell faces or exact triangles
+  /// flat and mapped: per pixel, the mean over its covered samples of the texel level used and
+  /// of the footprint's area in level-0 texels (−1 and 0 where nothing was looked up).
+  std::vector<float> lod, footprintTexels;
 };
 
 /// The BTF values and visibility map the flat and mapped modes read, in tile units and
@@ -70,19 +84,42 @@ struct RenderImage {
 /// value otherwise.
 class BtfSampler {
  public:
+  /// Where a lookup's filter reaches: the pixel sample's footprint, a parallelogram of axes a, b
+  /// (tile units) around the point, covered by na × nb taps at the centres of its cells, each
+  /// read trilinearly at the level of detail `lod` (continuous, 0 = the simulated texels, k =
+  /// 2^k texels per level texel) whose texels are as wide as a cell.
+  struct Footprint {
+    double lod = 0;
+    glm::dvec2 a{0}, b{0};
+    int na = 1, nb = 1;
+  };
   /// `vmfPath` (a raw store of the same scene) supplies the visibility map when `path` has none
   /// (a .cbtf); "" = none. `flatTile`: the tile is flat, so a missing VMF is the plane z = 0.
+  /// `mip`: the texel levels too (a pyramid .cbtf decodes its own; otherwise box-filtered from
+  /// level 0 in memory, with the visibility map's levels).
   BtfSampler(const std::string& path, const std::string& vmfPath, bool flatTile,
-             uint64_t memoryBudget, const CancelToken* cancel = nullptr);
+             uint64_t memoryBudget, const CancelToken* cancel = nullptr, bool mip = false);
   ~BtfSampler();
   const BtfInfo& info() const;
   bool hasVmf() const { return m_hasVmf; }
+  /// Levels held (1 without mip).
+  int levels() const { return int(m_lv.size()); }
+  /// Whether the levels come from the file (a pyramid .cbtf) rather than box filtering here.
+  bool fileLevels() const { return m_fileLevels; }
+  /// The footprint of a pixel sample whose neighbours lie dx, dy away in tile units: its short
+  /// axis cut in up to two cells (fewer below two level-0 texels), its long axis in cells as
+  /// wide, up to maxAniso times as many; lod = log2 of the widest cell in level-0 texels,
+  /// clamped to [0, levels − 1] (past maxAniso the cells stretch and the level rises with them).
+  Footprint footprint(const glm::dvec2& dx, const glm::dvec2& dy, int maxAniso) const;
   /// aBRDF at tile position (x, y) (bilinear between texels, periodic), directions interpolated
-  /// on the set; wo, wi unit with z > 0.
-  Rgb eval(double x, double y, const DVec3& wo, const DVec3& wi) const;
-  /// The VMF at (x, y) (nearest texel) for direction w (interpolated): coverage in [0, 1] and
-  /// the height above the reference plane of the hit of the line through (x, y, 0) along −w.
-  void vmf(double x, double y, const DVec3& w, float* coverage, float* height) const;
+  /// on the set; wo, wi unit with z > 0. With a footprint: trilinear between its two levels,
+  /// averaged over its taps.
+  Rgb eval(double x, double y, const DVec3& wo, const DVec3& wi,
+           const Footprint* fp = nullptr) const;
+  /// The VMF of level `level` at (x, y) (nearest texel) for direction w (interpolated): coverage
+  /// in [0, 1] and the height above the reference plane of the hit of the line through (x, y, 0)
+  /// along −w.
+  void vmf(double x, double y, const DVec3& w, float* coverage, float* height, int level = 0) const;
   uint64_t memoryBytes() const;
   /// For a constant environment: per texel and view, Σ_l aBRDF(t, v, l)·w_l over the set's light
   /// directions, w_l the cosine-weighted solid angle of l's ring band shared by its count (they
@@ -90,21 +127,33 @@ class BtfSampler {
   /// every value).
   void prepareAmbient(const CancelToken* cancel = nullptr);
   /// That sum at (x, y) (bilinear, periodic) for view wo (interpolated); prepareAmbient first.
-  Rgb ambient(double x, double y, const DVec3& wo) const;
+  Rgb ambient(double x, double y, const DVec3& wo, const Footprint* fp = nullptr) const;
 
  private:
-  std::unique_ptr<Decoder> m_dec;
+  struct Level {
+    int nu = 1, nv = 1;
+    std::unique_ptr<Decoder> dec;  // per-value access when the values are not in memory
+    const float* data = nullptr;   // texel-major values, in m_data or m_coarse
+    std::vector<float> vmf;        // levels ≥ 1: nDirs × texels × 2
+    size_t ambient = 0;            // its first texel's offset in m_ambient (floats)
+  };
   std::shared_ptr<DirectionSet> m_dirs;
-  std::vector<float> m_data;     // raw: texel-major values
-  std::vector<float> m_vmf;      // nDirs × texels × 2
-  std::vector<float> m_ambient;  // texels × views × 3 (prepareAmbient)
-  bool m_hasVmf = false, m_flat = false;
+  std::vector<Level> m_lv;
+  std::vector<float> m_data;     // level 0, texel-major values
+  std::vector<float> m_coarse;   // levels 1.., texel-major, one after the other
+  std::vector<float> m_vmf;      // level 0: nDirs × texels × 2
+  std::vector<float> m_ambient;  // per level, texels × views × 3 (prepareAmbient)
+  bool m_hasVmf = false, m_flat = false, m_fileLevels = false;
   int m_nu = 1, m_nv = 1, m_n = 1;
   double m_Lx = 1, m_Ly = 1;
-  Rgb value(int64_t texel, int view, int light) const;
-  /// fn(texel, weight) for the four texels around (x, y) (tile units), bilinear and periodic.
+  Rgb value(int level, int64_t texel, int view, int light) const;
+  /// fn(texel, weight) for the four texels of `level` around (x, y) (tile units), bilinear and
+  /// periodic.
   template <class Fn>
-  void bilinear(double x, double y, Fn&& fn) const;
+  void bilinear(int level, double x, double y, Fn&& fn) const;
+  /// fn(level, x, y, weight) for the lookups a footprint asks for (one at level 0 without).
+  template <class Fn>
+  void filtered(double x, double y, const Footprint* fp, Fn&& fn) const;
 };
 
 /// The object, its tile space and its shell, shared by the three modes.
@@ -153,14 +202,29 @@ class RenderScene {
 
  private:
   struct Camera;
+  /// A camera sample's ray differentials: the rays of its neighbours one sample spacing away.
+  struct RayDiff {
+    DVec3 dox{0}, doy{0}, ddx{0}, ddy{0};
+  };
+  /// What a sample's shading reports beside its colour: its footprint (lod < 0: none).
+  struct SampleInfo {
+    double lod = -1, texels = 0;
+    void set(const BtfSampler::Footprint& fp, const BtfSampler& btf);
+  };
   struct MarchHit {
     DVec3 world{0}, tile{0}, crossing{0}, wo{0, 0, 1};
     int prism = -1;
+    BtfSampler::Footprint fp;
   };
   enum MarchResult { kMiss = 0, kRelief = 1, kAbsorbed = 2 };
   /// Follows o + t d (t > tmin) through the shell; kRelief fills `hit`.
   MarchResult march(const DVec3& o, const DVec3& d, double tmin, const BtfSampler& btf, Rng& rng,
-                    MarchHit* hit, uint64_t* rays) const;
+                    MarchHit* hit, uint64_t* rays, const RayDiff* diff = nullptr) const;
+  /// The footprint at world point p of base triangle `tri` of the camera ray (o, d) with its
+  /// differentials (tangent-plane transfer, then the triangle's texture map): level 0 when mip is
+  /// off, the forced level when one is.
+  BtfSampler::Footprint footprintAt(uint32_t tri, const DVec3& p, const DVec3& o, const DVec3& d,
+                                    const RayDiff& diff, const BtfSampler& btf) const;
   /// The tile-frame light direction at a relief hit, false when the light is blocked.
   /// The nearest of prism `prism`'s own 8 faces along o + t d with t > tmin (the march's step
   /// inside the shell, without a BVH query); false when none is found (numerically), and the
@@ -170,7 +234,7 @@ class RenderScene {
                uint64_t* rays) const;
   bool segmentHit(int prism, const DVec3& tin, const DVec3& tout, const DVec3& pin,
                   const DVec3& pout, const DVec3& d, const BtfSampler& btf, Rng& rng, bool* ahead,
-                  MarchHit* hit) const;
+                  MarchHit* hit, int vmfLevel) const;
   Camera camera() const;
   /// A world direction in the tile frame of prism `prism` at tile point t (unit).
   DVec3 tileDir(int prism, const DVec3& t, const DVec3& d) const;

@@ -1,0 +1,75 @@
+// Multi-resolution BTFs (docs/mip.md; thesis §4.4.2): the texel levels of a BTF built by box
+// averaging (store/levels.h), compressed together as one pyramid by any codec (the levels' texels
+// one after the other, clustered and factorised together), and opened level by level behind the
+// Decoder API.
+#pragma once
+#include <btf/compress/compress.h>
+#include <btf/store/levels.h>
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace btf {
+
+/// Level `to` (coarser) from the level above it: `fineRow(v)` gives fine row v (nu texels of
+/// `stride` floats); out receives mu × mv texels. Each value is Σ w·x in double, rounded once.
+void downsampleLevel(const std::function<const float*(int)>& fineRow, int nu, int nv, size_t stride,
+                     int mu, int mv, float* out, const CancelToken* cancel = nullptr);
+
+/// Levels 1..upTo of a BTF read through a decoder (texel() per texel; a raw store's chunks are
+/// verified on the way), concatenated in pyramid order from level 1. Holds at most three rows of
+/// level 0 and the coarse levels themselves.
+std::vector<float> buildCoarseLevels(const Decoder& base, int upTo, bool progress,
+                                     const CancelToken* cancel = nullptr);
+/// Same from values already in memory (level 0, texel-major).
+std::vector<float> buildCoarseLevels(const float* base, const BtfInfo& info, int upTo,
+                                     const CancelToken* cancel = nullptr);
+
+/// Visibility-map levels: for each direction, a coarse texel's coverage is the largest of its
+/// box's and its height the highest of its covered texels' — never less relief than any texel
+/// it stands for, so silhouettes drawn from a coarse level are never smaller. `vmf`: nDirs ×
+/// nu × nv × (coverage, height); returns levels 1..upTo likewise, direction-major per level.
+std::vector<std::vector<float>> vmfLevels(const std::vector<float>& vmf, int nDirs, int nu, int nv,
+                                          int upTo);
+
+/// The geometry a codec sees for a pyramid: the levels' texels as one strip (nu = all of them,
+/// nv = 1), the rest of the base's header kept.
+BtfInfo pyramidInfo(const BtfInfo& base);
+/// `base` with level k's texel grid.
+BtfInfo levelInfo(const BtfInfo& base, const MipLevel& level);
+
+/// Level `level` of a decoder that decodes a pyramid strip (pyramidInfo), presented with the
+/// level's own geometry.
+std::unique_ptr<Decoder> pyramidLevel(std::shared_ptr<const Decoder> strip, const BtfInfo& base,
+                                      int level);
+/// Level `level` of a pyramid file (c.levels non-empty); makeDecoder(c) is its level 0.
+std::unique_ptr<Decoder> makePyramidDecoder(CompressedBtf c, int level);
+/// A level held in memory (values texel-major, level's geometry in `info`).
+std::unique_ptr<Decoder> memoryLevel(BtfInfo info, std::vector<float> values, std::string kind);
+
+/// Level `level` of a BTF file: a pyramid .cbtf decodes its own; a raw store or a single-level
+/// .cbtf box-filters it from level 0 (in memory, refused past memoryBudget). Level 0 is
+/// openBtf(path). btf::Error names the level range.
+std::unique_ptr<Decoder> openBtfLevel(const std::string& path, int level, uint64_t memoryBudget = 0,
+                                      bool progress = false, const CancelToken* cancel = nullptr);
+/// Levels a file has (a pyramid .cbtf: its own; otherwise those box filtering can build).
+int fileLevelCount(const std::string& path);
+
+struct PyramidReport : CompressReport {
+  double levelSeconds = 0;  // building levels 1..
+  struct Level {
+    int nu = 0, nv = 0;
+    double relRmse = 0, rmse = 0;
+  };
+  std::vector<Level> levels;
+};
+
+/// `compress --mip`: the raw store's levels built (in memory: a third of the raw bytes, checked
+/// against the budget), every level's texels encoded as one pyramid by the codec of `s` (its
+/// target ratio or error applies to the pyramid's raw bytes), each level's error measured.
+CompressedBtf compressPyramid(const std::string& inPath, const CodecSettings& s, bool progress,
+                              const CancelToken* cancel, PyramidReport* report);
+
+}  // namespace btf
