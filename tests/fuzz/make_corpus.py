@@ -298,6 +298,9 @@ def btfs(btfsim, tmp):
         out = os.path.join(tmp, codec + ".cbtf")
         run("compress", os.path.join(tmp, "brick3.btf"), "-o", out, "--codec", codec)
         shutil.copy(out, os.path.join(HERE, "corpus", "cbtf", codec + ".cbtf"))
+    run("compress", os.path.join(tmp, "brick3.btf"), "-o", os.path.join(tmp, "mip.cbtf"),
+        "--codec", "tensor", "--mip")
+    shutil.copy(os.path.join(tmp, "mip.cbtf"), os.path.join(HERE, "corpus", "cbtf", "mip.cbtf"))
     run("compress", os.path.join(tmp, "brick.btf"), "-o", os.path.join(tmp, "ycc.cbtf"),
         "--codec", "nmf", "--colour-model", "rgb")
     shutil.copy(os.path.join(tmp, "ycc.cbtf"), os.path.join(HERE, "corpus", "cbtf", "nmf_rgb.cbtf"))
@@ -367,6 +370,12 @@ def btfs(btfsim, tmp):
         ccrafted(codec + "_array_shapes.cbtf", shrink, src)
         ccrafted(codec + "_missing_array.cbtf", lambda j: j["arrays"].pop(), src)
     regression("cbtf", "raw_header_in_cbtf.cbtf", b"BTFCOMP1" + b[8:])
+    # Pyramids whose level table does not follow from the texel grid.
+    msrc = split(os.path.join(tmp, "mip.cbtf"))
+    ccrafted("mip_wrong_level.cbtf", lambda j: j["levels"][1].update(texels=[9, 9]), msrc)
+    ccrafted("mip_huge_first.cbtf", lambda j: j["levels"][2].update(first=1 << 60), msrc)
+    ccrafted("mip_levels_not_a_list.cbtf", lambda j: j.update(levels={"a": 1}), msrc)
+    ccrafted("mip_levels_dropped.cbtf", lambda j: j.pop("levels"), msrc)
 
 
 # ------------------------------------------------------------------------------ pairs
