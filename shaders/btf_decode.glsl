@@ -249,8 +249,10 @@ vec3 decodeFactorTexels(int tt[4], float tw[4], float thetaI, float phiI, float 
   return acc;
 }
 
-// At a tile position (x, y) in texel units, bilinear between texel centres (periodic).
-vec3 decodeAt(float x, float y, float thetaI, float phiI, float thetaO, float phiO) {
+// At a position (x, y) in the texel units of an nu × nv grid whose texels start at pyramid texel
+// `first` (a level; 0 for level 0), bilinear between texel centres (periodic).
+vec3 decodeAtGrid(float x, float y, int nu, int nv, int first, float thetaI, float phiI,
+                  float thetaO, float phiO) {
   if (nmfFast() || u_codec == 4) {
     float fx = x - 0.5, fy = y - 0.5;
     float x0 = floor(fx), y0 = floor(fy);
@@ -259,9 +261,9 @@ vec3 decodeAt(float x, float y, float thetaI, float phiI, float thetaO, float ph
     float tw[4];
     for (int j = 0; j < 2; ++j)
       for (int i = 0; i < 2; ++i) {
-        int u = int(mod(x0 + float(i), float(u_nu)));
-        int v = int(mod(y0 + float(j), float(u_nv)));
-        tt[j * 2 + i] = u + u_nu * v;
+        int u = int(mod(x0 + float(i), float(nu)));
+        int v = int(mod(y0 + float(j), float(nv)));
+        tt[j * 2 + i] = first + u + nu * v;
         tw[j * 2 + i] = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
       }
     return decodeFactorTexels(tt, tw, thetaI, phiI, thetaO, phiO);
@@ -274,9 +276,49 @@ vec3 decodeAt(float x, float y, float thetaI, float phiI, float thetaO, float ph
     for (int i = 0; i < 2; ++i) {
       float w = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
       if (w <= 0.0) continue;
-      int u = int(mod(x0 + float(i), float(u_nu)));
-      int v = int(mod(y0 + float(j), float(u_nv)));
-      acc += w * decodeTexel(u + u_nu * v, thetaI, phiI, thetaO, phiO);
+      int u = int(mod(x0 + float(i), float(nu)));
+      int v = int(mod(y0 + float(j), float(nv)));
+      acc += w * decodeTexel(first + u + nu * v, thetaI, phiI, thetaO, phiO);
     }
   return acc;
+}
+
+vec3 decodeAt(float x, float y, float thetaI, float phiI, float thetaO, float phiO) {
+  return decodeAtGrid(x, y, u_nu, u_nv, 0, thetaI, phiI, thetaO, phiO);
+}
+
+// Texel levels (a --mip file, docs/mip.md): level k is a u_levelNu[k] × u_levelNv[k] grid whose
+// texels start at pyramid texel u_levelFirst[k]. a, b: the pixel's footprint axes in level-0
+// texels; lod = log2 of the longer, clamped to the levels (btf::texelFilter with maxAniso 0).
+#define MAX_LEVELS 16
+uniform int u_nLevels;  // 1: level 0 only
+uniform int u_levelNu[MAX_LEVELS];
+uniform int u_levelNv[MAX_LEVELS];
+uniform int u_levelFirst[MAX_LEVELS];
+
+float texelLod(float la, float lb) {
+  return clamp(log2(max(max(la, lb), 1e-12)), 0.0, float(u_nLevels - 1));
+}
+
+vec3 decodeLevel(int k, float x, float y, float thetaI, float phiI, float thetaO, float phiO) {
+  float sx = float(u_levelNu[k]) / float(u_nu), sy = float(u_levelNv[k]) / float(u_nv);
+  return decodeAtGrid(x * sx, y * sy, u_levelNu[k], u_levelNv[k], u_levelFirst[k], thetaI, phiI,
+                      thetaO, phiO);
+}
+
+// (x, y) in level-0 texel units; `lod` receives the level of detail used. One tap at the two
+// levels around lod (isotropic trilinear: the footprint's long axis sets the level; the CPU
+// renderer's anisotropic taps, btf::texelFilter with maxAniso > 0, are not here — llvmpipe
+// (Mesa 22.3) summed a loop of tensor decodes wrongly, which check_glsl caught).
+vec3 decodeFiltered(float x, float y, vec2 a, vec2 b, float thetaI, float phiI, float thetaO,
+                    float phiO, out float lod) {
+  lod = 0.0;
+  if (u_nLevels <= 1) return decodeAt(x, y, thetaI, phiI, thetaO, phiO);
+  lod = texelLod(length(a), length(b));
+  int top = u_nLevels - 1;
+  int l0 = min(int(lod), top), l1 = min(l0 + 1, top);
+  float f = l1 != l0 ? lod - float(l0) : 0.0;
+  vec3 v0 = decodeLevel(l0, x, y, thetaI, phiI, thetaO, phiO);
+  vec3 v1 = decodeLevel(l1, x, y, thetaI, phiI, thetaO, phiO);
+  return mix(v0, v1, f);
 }

@@ -10,7 +10,17 @@ uniform float u_tiling;   // tiles per unit of uv
 uniform float u_exposure;
 uniform int u_toneMap;    // 0 clamp, 1 Reinhard, 2 ACES-like filmic
 uniform int u_bilinear;
+uniform int u_showLevel;  // 1: the texel level in false colour (levelColour)
 out vec4 o_colour;
+
+// btf::levelColour: 0 blue, 1 cyan, 2 green, 3 yellow, 4 red, 5+ magenta.
+vec3 levelColour(float level) {
+  vec3 ramp[6] = vec3[6](vec3(0.1, 0.2, 1.0), vec3(0.0, 0.9, 0.9), vec3(0.1, 0.9, 0.1),
+                         vec3(1.0, 0.9, 0.0), vec3(1.0, 0.15, 0.0), vec3(0.9, 0.0, 0.9));
+  float l = clamp(level, 0.0, 5.0);
+  int k = min(4, int(l));
+  return mix(ramp[k], ramp[k + 1], l - float(k));
+}
 
 vec3 toneMap(vec3 c) {
   if (u_toneMap == 1) return c / (1.0 + c);
@@ -36,7 +46,16 @@ void main() {
   vec3 wi = normalize(u_lightDir);
   vec3 lo = vec3(dot(wo, t), dot(wo, b), dot(wo, n));
   vec3 li = vec3(dot(wi, t), dot(wi, b), dot(wi, n));
+  // The pixel's footprint in level-0 texels (derivatives in uniform control flow).
+  float X = v_uv.x * u_tiling * float(u_nu), Y = v_uv.y * u_tiling * float(u_nv);
+  vec2 fa = vec2(dFdx(X), dFdx(Y)), fb = vec2(dFdy(X), dFdy(Y));
   vec3 colour = vec3(0.0);
+  float lod = 0.0;
+  if (u_showLevel == 1 && u_nLevels > 1) {
+    lod = texelLod(length(fa), length(fb));
+    o_colour = vec4(pow(levelColour(lod), vec3(1.0 / 2.2)), 1.0);
+    return;
+  }
   if (li.z > 0.0 && lo.z > 0.0) {
     float thetaI = acos(clamp(li.z, 0.0, 1.0)), phiI = atan(li.y, li.x);
     float thetaO = acos(clamp(lo.z, 0.0, 1.0)), phiO = atan(lo.y, lo.x);
@@ -44,8 +63,9 @@ void main() {
     if (phiO < 0.0) phiO += kTwoPi;
     float x = fract(v_uv.x * u_tiling) * float(u_nu);
     float y = fract(v_uv.y * u_tiling) * float(u_nv);
-    vec3 f = u_bilinear == 1 ? decodeAt(x, y, thetaI, phiI, thetaO, phiO)
-                             : decodeTexel(int(x) + u_nu * int(y), thetaI, phiI, thetaO, phiO);
+    vec3 f = u_nLevels > 1   ? decodeFiltered(x, y, fa, fb, thetaI, phiI, thetaO, phiO, lod)
+             : u_bilinear == 1 ? decodeAt(x, y, thetaI, phiI, thetaO, phiO)
+                               : decodeTexel(int(x) + u_nu * int(y), thetaI, phiI, thetaO, phiO);
     colour = f * li.z;
   }
   vec3 c = toneMap(colour * u_exposure);

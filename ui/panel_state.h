@@ -61,6 +61,8 @@ struct ObjectState {
   float exposure = 1.5f, tiling = 2;
   int toneMap = 1;
   bool bilinear = true;
+  // Texel levels of a --mip file (docs/mip.md): chosen per pixel from the uv derivatives.
+  bool mip = true, showLevel = false;
   gl::Framebuffer fb;
   gl::Program program;
   std::string programError;

@@ -253,6 +253,7 @@ bool App::scriptStep() {
            const json& s = a["compress"];
            form.codec = s.value("codec", form.codec);
            form.targetRatio = s.value("target_ratio", form.targetRatio);
+           form.codecOptions.setFlag("mip", s.value("mip", false));
            m_lastJobId = startCompression(s.at("input"), s.at("output"));
            if (a.value("wait", 0.0) > 0)
              waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the compression");
@@ -400,6 +401,10 @@ bool App::scriptStep() {
         {"object",
          [&]() -> std::optional<bool> {
            obj.shape = a["object"];
+           // Texel levels of a pyramid file (docs/mip.md): on/off, false colour, tiling.
+           obj.mip = a.value("mip", obj.mip);
+           obj.showLevel = a.value("show_level", obj.showLevel);
+           obj.tiling = a.value("tiling", obj.tiling);
            m_scriptWaitFrames = 2;
            // Then wait for the banded pass to complete (the panel must be open).
            m_waitFor = [this] {
@@ -435,7 +440,8 @@ bool App::scriptStep() {
            const bool ok = checkGlsl(objectView(), c.value("samples", 256),
                                      c.value("tolerance", 0.02), &result);
            m_report["check_glsl"] = result;
-           m_report["check_glsl_" + objectView().insp.cbtf->codec] = result;
+           m_report["check_glsl_" + objectView().insp.cbtf->codec +
+                    (objectView().insp.cbtf->levels.empty() ? "" : "_mip")] = result;
            if (!ok) return fail("GLSL decoder differs from the CPU decoder: " + result.dump());
            return std::nullopt;
          }},

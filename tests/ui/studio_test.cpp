@@ -176,12 +176,34 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   // The tensor codec's GLSL decoder (the codec sweep wrote its file) against its CPU decoder.
   a.push_back({{"open_compressed", out + ".tensor.cbtf"}, {"reference", out + ".btf"}});
   a.push_back({{"check_glsl", {{"samples", 512}, {"tolerance", 2e-3}}}});
+  // A pyramid (compress --mip): the GLSL level selection and filtered decode against the CPU's,
+  // and the sphere far away in false colour (levels rising toward the silhouette).
+  a.push_back({{"compress",
+                {{"input", out + ".btf"},
+                 {"output", out + ".mip.cbtf"},
+                 {"codec", "tensor"},
+                 {"mip", true}}},
+               {"wait", 300}});
+  a.push_back({{"expect_job", {{"status", "done"}}}});
+  a.push_back({{"check_glsl", {{"samples", 512}, {"tolerance", 2e-3}}}});
+  a.push_back({{"panel", "Objects"}});
+  a.push_back({{"object", "sphere"}, {"show_level", true}, {"tiling", 16}});
+  a.push_back({{"frames", 3}});
+  a.push_back({{"screenshot", (dir / "object_levels.png").string()}});
+  a.push_back({{"object", "sphere"}, {"show_level", false}});
+  a.push_back({{"frames", 3}});
+  a.push_back({{"screenshot", (dir / "object_mip.png").string()}});
   a.push_back({{"report", (dir / "report.json").string()}});
   std::string log;
   ASSERT_EQ(runStudio(a, dir, &log), 0) << log;
   const json r = json::parse(readFile(dir / "report.json"));
   const json gt = r.at("check_glsl_tensor");
   EXPECT_GT(gt["peak"].get<double>(), 0.01);
+  // The last check is the pyramid's: every level, the CPU's level choice to 1e-3.
+  const json gm = r.at("check_glsl_tensor_mip");
+  EXPECT_GE(gm["levels"].get<int>(), 4) << gm.dump();
+  EXPECT_LE(gm["max_lod_difference"].get<double>(), 1e-3) << gm.dump();
+  EXPECT_LE(gm["max_rel_to_peak"].get<double>(), 2e-3) << gm.dump();
   EXPECT_LE(gt["max_rel_to_peak"].get<double>(), 2e-3) << gt.dump();
   const json g = r.at("check_glsl_nmf");
   EXPECT_EQ(g["samples"], 512);
@@ -196,8 +218,9 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   }
   for (const char* f : {"-objects.png", "-objects.exact.exr", "-objects.mapped.exr"})
     EXPECT_TRUE(fs::exists(out + f)) << f;
-  for (const char* s : {"inspector", "object_plane", "object_sphere", "object_vase",
-                        "object_cushion", "object_chair", "object_cpu", "study", "jobs"})
+  for (const char* s :
+       {"inspector", "object_plane", "object_sphere", "object_vase", "object_cushion",
+        "object_chair", "object_cpu", "study", "jobs", "object_levels", "object_mip"})
     expectNotBlank(dir / (std::string(s) + ".png"));
   std::cout << "GLSL vs CPU decoder: " << g.dump() << "\n";
 }

@@ -2,6 +2,7 @@
 // shaders/ (btf_decode.glsl: texture-buffer arrays, direction interpolation, bilinear texels),
 // with per-pixel tangent frames, light and orbit-camera control, exposure and tone mapping.
 // checkGlsl() renders the same decoder into a float framebuffer for comparison with the CPU.
+#include <btf/compress/mip.h>
 #include <btf/core/error.h>
 #include <btf/core/rng.h>
 #include <btf/directions/direction_set.h>
@@ -28,8 +29,9 @@ std::string decoderFragment(const std::string& body) {
   return "#version 330 core\n" + shaderSource("btf_decode.glsl") + "\n" + shaderSource(body);
 }
 
-// Uploads the compressed arrays as texture buffers and sets the decoder's uniforms.
-void bindDecoder(const ObjectView& app, const gl::Program& prog) {
+// Uploads the compressed arrays as texture buffers and sets the decoder's uniforms; `levels`:
+// a pyramid's texel levels too (docs/mip.md), else level 0 alone.
+void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
   ObjectState& o = app.obj;
   const CompressedBtf& c = *app.insp.cbtf;
   if (o.bound != app.insp.compressed) {
@@ -124,6 +126,16 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog) {
     cnt.push_back(r.count);
     first.push_back(r.first);
   }
+  const int nLevels = levels ? int(c.levels.size()) : 0;
+  if (nLevels > 16) throw Error("the GLSL decoder handles at most 16 texel levels");
+  std::vector<int> lnu(16, 1), lnv(16, 1), lfirst(16, 0);
+  for (int k = 0; k < nLevels; ++k)
+    lnu[size_t(k)] = c.levels[size_t(k)].nu, lnv[size_t(k)] = c.levels[size_t(k)].nv,
+    lfirst[size_t(k)] = int(c.levels[size_t(k)].first);
+  prog.set("u_nLevels", std::max(1, nLevels));
+  prog.setInts("u_levelNu", lnu.data(), 16);
+  prog.setInts("u_levelNv", lnv.data(), 16);
+  prog.setInts("u_levelFirst", lfirst.data(), 16);
   prog.set("u_nRings", int(rings.size()));
   prog.setFloats("u_ringTheta", th.data(), int(th.size()));
   prog.setFloats("u_ringPhi0", ph.data(), int(ph.size()));
@@ -137,7 +149,25 @@ bool checkGlsl(const ObjectView& app, int samples, double tolerance, json* resul
   if (!app.insp.cbtf || !app.insp.decoder) throw Error("check_glsl: open a compressed BTF first");
   gl::Program prog;
   prog.build("btf_check", shaderSource("fullscreen.vert"), decoderFragment("btf_check.frag"));
-  const BtfInfo& I = app.insp.cbtf->info;
+  const CompressedBtf& cb = *app.insp.cbtf;
+  const BtfInfo& I = cb.info;
+  // A pyramid: the filtered decode over its levels (level selection, taps, trilinear) against
+  // the CPU's evaluateFiltered, with footprints from under a texel to past the last level.
+  const bool filtered = !cb.levels.empty();
+  // The GPU's rule: one tap, the long axis sets the level (texelFilter's maxAniso 0).
+  const int maxAniso = 0, m = filtered ? 10 : 6;
+  std::vector<std::unique_ptr<Decoder>> owned;
+  std::vector<const Decoder*> levels;
+  if (filtered) {
+    CompressedBtf strip = cb;
+    strip.info = pyramidInfo(cb.info);
+    strip.levels.clear();
+    std::shared_ptr<const Decoder> all = makeDecoder(std::move(strip));
+    for (size_t k = 0; k < cb.levels.size(); ++k) {
+      owned.push_back(pyramidLevel(all, cb.info, int(k)));
+      levels.push_back(owned.back().get());
+    }
+  }
   // Queries: texel positions anywhere on the tile, directions up to 85°; a fixed seed.
   std::vector<float> q;
   Rng rng(12345);
@@ -148,6 +178,16 @@ bool checkGlsl(const ObjectView& app, int samples, double tolerance, json* resul
     q.push_back(float(rng.uniform() * 2 * kPi));
     q.push_back(float(rng.uniform() * deg2rad(85.0)));
     q.push_back(float(rng.uniform() * 2 * kPi));
+    if (filtered) {
+      // Axes of 0.3 to 2·(texels a side) texels, any orientation, up to 16:1 elongation: every
+      // level, and blends between them.
+      const double len = 0.3 * std::pow(2.0 * std::max(I.nu, I.nv) / 0.3, rng.uniform());
+      const double ang = rng.uniform() * 2 * kPi, ratio = std::pow(16.0, rng.uniform());
+      q.push_back(float(len * std::cos(ang)));
+      q.push_back(float(len * std::sin(ang)));
+      q.push_back(float(-len / ratio * std::sin(ang)));
+      q.push_back(float(len / ratio * std::cos(ang)));
+    }
   }
   gl::TextureBuffer qb;
   qb.set(q.data(), q.size(), false);
@@ -155,16 +195,25 @@ bool checkGlsl(const ObjectView& app, int samples, double tolerance, json* resul
   gl::Framebuffer fb;
   fb.resize(W, H, true);
   fb.begin(0, 0, 0, 0);
-  bindDecoder(app, prog);
+  bindDecoder(app, prog, filtered);
   prog.bindBuffer("u_queries", qb, 13);
   prog.set("u_width", W);
+  prog.set("u_filtered", filtered ? 1 : 0);
   gl::drawFullscreen();
   const auto px = fb.readFloat();
   gl::Framebuffer::end(app.width, app.height);
-  double maxAbs = 0, peak = 0, se = 0, ref2 = 0;
+  double maxAbs = 0, peak = 0, se = 0, ref2 = 0, lodDiff = 0;
   for (int k = 0; k < samples; ++k) {
-    const float* s = &q[size_t(k) * 6];
-    const auto cpu = app.insp.decoder->evaluateAt(s[0], s[1], s[2], s[3], s[4], s[5]);
+    const float* s = &q[size_t(k) * size_t(m)];
+    std::array<float, 3> cpu;
+    if (filtered) {
+      const double a[2] = {s[6], s[7]}, b[2] = {s[8], s[9]};
+      double lod = 0;
+      cpu = evaluateFiltered(levels, s[0], s[1], a, b, maxAniso, s[2], s[3], s[4], s[5], &lod);
+      lodDiff = std::max(lodDiff, std::abs(double(px[size_t(k) * 4 + 3]) - lod));
+    } else {
+      cpu = app.insp.decoder->evaluateAt(s[0], s[1], s[2], s[3], s[4], s[5]);
+    }
     for (int c = 0; c < 3; ++c) {
       const double g = px[size_t(k) * 4 + size_t(c)], r = cpu[size_t(c)];
       maxAbs = std::max(maxAbs, std::abs(g - r));
@@ -179,8 +228,10 @@ bool checkGlsl(const ObjectView& app, int samples, double tolerance, json* resul
              {"peak", peak},
              {"max_rel_to_peak", rel},
              {"rel_rmse", ref2 > 0 ? std::sqrt(se / ref2) : 0},
-             {"tolerance", tolerance}};
-  return rel <= tolerance;
+             {"tolerance", tolerance},
+             {"levels", filtered ? int(cb.levels.size()) : 1}};
+  if (filtered) (*result)["max_lod_difference"] = lodDiff;
+  return rel <= tolerance && lodDiff <= 1e-3;
 }
 
 void drawObjectViewer(const ObjectView& app) {
@@ -211,6 +262,18 @@ void drawObjectViewer(const ObjectView& app) {
   ImGui::SliderFloat("light φ", &o.lightPhi, -180, 180);
   ImGui::SameLine();
   ImGui::Checkbox("bilinear texels", &o.bilinear);
+  if (app.insp.cbtf && !app.insp.cbtf->levels.empty()) {
+    // A pyramid (compress --mip): the level per pixel from its footprint, or level 0.
+    ImGui::SameLine();
+    ImGui::Checkbox("texel levels", &o.mip);
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "trilinear over the file's %zu texel levels, chosen per pixel from its "
+          "footprint (docs/mip.md)",
+          app.insp.cbtf->levels.size());
+    ImGui::SameLine();
+    ImGui::Checkbox("show level", &o.showLevel);
+  }
   ImGui::SameLine();
   ImGui::SetNextItemWidth(80);
   ImGui::SliderFloat("render scale", &o.renderScale, 0.25f, 1.0f, "%.2f");
@@ -287,9 +350,10 @@ void drawObjectViewer(const ObjectView& app) {
             h = std::max(32, int(dispH * o.renderScale));
   // The GPU decode is heavy on llvmpipe: render only when something changed.
   char key[512];
-  std::snprintf(key, sizeof key, "%s|%s|%d|%d|%.4f|%.4f|%.4f|%.3f|%.3f|%.4f|%.4f|%d|%d",
+  std::snprintf(key, sizeof key, "%s|%s|%d|%d|%.4f|%.4f|%.4f|%.3f|%.3f|%.4f|%.4f|%d|%d|%d|%d",
                 o.shape.c_str(), o.bound.c_str(), w, h, o.yaw, o.pitch, o.distance, o.lightTheta,
-                o.lightPhi, o.exposure, o.tiling, o.toneMap, o.bilinear ? 1 : 0);
+                o.lightPhi, o.exposure, o.tiling, o.toneMap, o.bilinear ? 1 : 0, o.mip ? 1 : 0,
+                o.showLevel ? 1 : 0);
   // A changed view restarts the pass; the pass renders a band of rows per frame so the UI keeps
   // its frame rate while llvmpipe decodes (the status bar shows the whole pass's time).
   if (key != o.renderedKey || o.bound != app.insp.compressed) {
@@ -316,7 +380,8 @@ void drawObjectViewer(const ObjectView& app) {
     gl::begin3d();
     gl::scissor(0, y0, w, y1 - y0);
     try {
-      bindDecoder(app, o.program);
+      bindDecoder(app, o.program, o.mip);
+      o.program.set("u_showLevel", o.showLevel ? 1 : 0);
       o.program.setMat4("u_viewProj", glm::value_ptr(vp));
       o.program.setMat4("u_model", glm::value_ptr(model));
       o.program.set("u_lightDir", std::sin(lt) * std::cos(lp + o.yaw),

@@ -301,6 +301,60 @@ std::unique_ptr<Decoder> openBtfLevel(const std::string& path, int level, uint64
       base->kind() + " (box-filtered level " + std::to_string(level) + ")");
 }
 
+TexelFilter texelFilter(double la, double lb, int maxAniso, int levels) {
+  TexelFilter f;
+  if (!std::isfinite(la) || !std::isfinite(lb)) {
+    f.lod = std::max(0, levels - 1);
+    return f;
+  }
+  const bool aLong = la >= lb;
+  const double major = aLong ? la : lb, minor = aLong ? lb : la;
+  if (maxAniso == 0) {  // one tap, the long axis sets the level (isotropic trilinear)
+    f.lod = std::clamp(std::log2(std::max(major, 1e-12)), 0.0, double(std::max(0, levels - 1)));
+    return f;
+  }
+  const int nMinor = std::clamp(int(std::ceil(minor)), 1, 2);
+  const double cell = std::max(minor / nMinor, 1e-12);
+  const int nMajor =
+      std::clamp(int(std::ceil(major / cell - 1e-6)), 1, std::max(1, maxAniso) * nMinor);
+  const double width = std::max(major / nMajor, minor / nMinor);
+  f.lod = std::clamp(std::log2(std::max(width, 1e-12)), 0.0, double(std::max(0, levels - 1)));
+  if (major > 1) {
+    f.na = aLong ? nMajor : nMinor;
+    f.nb = aLong ? nMinor : nMajor;
+  }
+  return f;
+}
+
+std::array<float, 3> evaluateFiltered(const std::vector<const Decoder*>& levels, double x, double y,
+                                      const double a[2], const double b[2], int maxAniso,
+                                      double thetaI, double phiI, double thetaO, double phiO,
+                                      double* lodOut) {
+  if (levels.empty()) throw Error("evaluateFiltered: no levels");
+  const TexelFilter f =
+      texelFilter(std::hypot(a[0], a[1]), std::hypot(b[0], b[1]), maxAniso, int(levels.size()));
+  if (lodOut) *lodOut = f.lod;
+  const int top = int(levels.size()) - 1;
+  const int l0 = std::min(int(f.lod), top), l1 = std::min(l0 + 1, top);
+  const double fr = f.lod - l0, share = 1.0 / (double(f.na) * f.nb);
+  const BtfInfo& base = levels[0]->info();
+  std::array<double, 3> acc{0, 0, 0};
+  auto add = [&](int k, double px, double py, double w) {
+    const BtfInfo& I = levels[size_t(k)]->info();
+    const auto v = levels[size_t(k)]->evaluateAt(px * I.nu / base.nu, py * I.nv / base.nv, thetaI,
+                                                 phiI, thetaO, phiO);
+    for (int c = 0; c < 3; ++c) acc[size_t(c)] += w * v[size_t(c)];
+  };
+  for (int j = 0; j < f.nb; ++j)
+    for (int i = 0; i < f.na; ++i) {
+      const double sa = (i + 0.5) / f.na - 0.5, sb = (j + 0.5) / f.nb - 0.5;
+      const double px = x + sa * a[0] + sb * b[0], py = y + sa * a[1] + sb * b[1];
+      if (fr < 1) add(l0, px, py, (1 - fr) * share);
+      if (fr > 0 && l1 != l0) add(l1, px, py, fr * share);
+    }
+  return {float(acc[0]), float(acc[1]), float(acc[2])};
+}
+
 CompressedBtf compressPyramid(const std::string& inPath, const CodecSettings& s, bool progress,
                               const CancelToken* cancel, PyramidReport* report) {
   const auto start = Clock::now();

@@ -57,6 +57,25 @@ std::unique_ptr<Decoder> openBtfLevel(const std::string& path, int level, uint64
 /// Levels a file has (a pyramid .cbtf: its own; otherwise those box filtering can build).
 int fileLevelCount(const std::string& path);
 
+/// The footprint rule shared by the CPU renderer and the GLSL decoder (docs/mip.md): a pixel
+/// sample's footprint, axes of lengths la, lb in level-0 texels, is covered by na × nb taps at its
+/// cells' centres (na along the first axis) — the short axis cut in up to two cells (one under two
+/// texels), the long one in cells as wide, at most maxAniso times as many — each read at lod =
+/// log2(cell width), clamped to [0, levels − 1]. Within one texel: a single tap.
+struct TexelFilter {
+  double lod = 0;
+  int na = 1, nb = 1;
+};
+TexelFilter texelFilter(double la, double lb, int maxAniso, int levels);
+
+/// What the GLSL decodeFiltered computes, on the CPU: (x, y) and the footprint axes a, b in
+/// level-0 texels, `levels` the decoders of every level (level 0 first); each tap reads the two
+/// levels around lod bilinearly (Decoder::evaluateAt) and blends them.
+std::array<float, 3> evaluateFiltered(const std::vector<const Decoder*>& levels, double x, double y,
+                                      const double a[2], const double b[2], int maxAniso,
+                                      double thetaI, double phiI, double thetaO, double phiO,
+                                      double* lod = nullptr);
+
 struct PyramidReport : CompressReport {
   double levelSeconds = 0;  // building levels 1..
   struct Level {

@@ -344,7 +344,9 @@ std::vector<CommandDecl> build() {
         in("mip_level", -1, -1, 30,
            "every lookup (and the visibility map) at this texel level "
            "(-1 = from the footprint)"),
-        in("max_aniso", 8, 1, 64, "taps along an elongated footprint's long axis"),
+        in("max_aniso", 8, 0, 64,
+           "taps along an elongated footprint's long axis (0 = one tap, the long axis sets the "
+           "level: the studio's GPU rule)"),
         flag("show_level",
              "draw the texel level each pixel uses in false colour (0 blue, 1 "
              "cyan, 2 green, 3 yellow, 4 red, 5+ magenta)")};

@@ -28,6 +28,8 @@ std::string lower(std::string s) {
 json errorJson(const ImageError& e) {
   json j;
   j["rel_rmse"] = e.relRmse;
+  j["rel_rmse_interior"] = e.relRmseInterior;
+  j["interior_pixels"] = e.interiorPixels;
   j["coverage_mismatch"] = e.coverageMismatch;
   j["reference_pixels"] = e.refPixels;
   j["mismatch_pixels"] = e.mismatchPixels;

@@ -230,28 +230,13 @@ void BtfSampler::bilinear(int level, double x, double y, Fn&& fn) const {
 BtfSampler::Footprint BtfSampler::footprint(const glm::dvec2& dx, const glm::dvec2& dy,
                                             int maxAniso) const {
   Footprint f;
-  const double top = double(levels() - 1);
-  if (top <= 0) return f;
-  // Lengths in level-0 texels.
-  const glm::dvec2 a(dx.x / m_Lx * m_nu, dx.y / m_Ly * m_nv),
-      b(dy.x / m_Lx * m_nu, dy.y / m_Ly * m_nv);
-  const double la = glm::length(a), lb = glm::length(b);
-  if (!std::isfinite(la) || !std::isfinite(lb)) {
-    f.lod = top;
-    return f;
-  }
-  const bool aLong = la >= lb;
-  const double major = aLong ? la : lb, minor = aLong ? lb : la;
-  const int nMinor = std::clamp(int(std::ceil(minor)), 1, 2);
-  const double cell = std::max(minor / nMinor, 1e-12);
-  const int nMajor =
-      std::clamp(int(std::ceil(major / cell - 1e-9)), 1, std::max(1, maxAniso) * nMinor);
-  const double width = std::max(major / nMajor, minor / nMinor);
-  f.lod = std::clamp(std::log2(std::max(width, 1e-12)), 0.0, top);
-  if (major <= 1) return f;  // within a texel: one bilinear tap
-  f.a = dx, f.b = dy;
-  f.na = aLong ? nMajor : nMinor;
-  f.nb = aLong ? nMinor : nMajor;
+  if (levels() == 1) return f;
+  // Lengths in level-0 texels; the rule is the GLSL decoder's too (texelFilter).
+  const double la = glm::length(glm::dvec2(dx.x / m_Lx * m_nu, dx.y / m_Ly * m_nv));
+  const double lb = glm::length(glm::dvec2(dy.x / m_Lx * m_nu, dy.y / m_Ly * m_nv));
+  const TexelFilter t = texelFilter(la, lb, maxAniso, levels());
+  f.lod = t.lod;
+  f.a = dx, f.b = dy, f.na = t.na, f.nb = t.nb;  // one tap: at the centre, a and b unused
   return f;
 }
 
@@ -1310,20 +1295,25 @@ ImageError compareImages(const RenderImage& img, const RenderImage& ref) {
     throw Error(format("images of different sizes (%dx%d vs %dx%d)", img.width, img.height,
                        ref.width, ref.height));
   ImageError e;
-  double num = 0, den = 0;
+  double num = 0, den = 0, numIn = 0, denIn = 0;
   for (size_t p = 0; p < img.alpha.size(); ++p) {
     const bool a = img.alpha[p] >= 0.5f, b = ref.alpha[p] >= 0.5f;
     e.refPixels += b;
     e.mismatchPixels += a != b;
     e.extraPixels += a && !b;
     if (!a && !b) continue;
+    const bool interior = img.alpha[p] >= 0.999f && ref.alpha[p] >= 0.999f;
+    e.interiorPixels += interior;
     for (int k = 0; k < 3; ++k) {
       const double d = double(img.rgb[p * 3 + size_t(k)]) - double(ref.rgb[p * 3 + size_t(k)]);
-      num += d * d;
-      den += double(ref.rgb[p * 3 + size_t(k)]) * double(ref.rgb[p * 3 + size_t(k)]);
+      const double r2 = double(ref.rgb[p * 3 + size_t(k)]) * double(ref.rgb[p * 3 + size_t(k)]);
+      num += d * d, den += r2;
+      if (interior) numIn += d * d, denIn += r2;
     }
   }
-  e.relRmse = den > 0 ? std::sqrt(num / den) : (num > 0 ? 1.0 : 0.0);
+  auto rel = [](double n, double d) { return d > 0 ? std::sqrt(n / d) : (n > 0 ? 1.0 : 0.0); };
+  e.relRmse = rel(num, den);
+  e.relRmseInterior = rel(numIn, denIn);
   e.coverageMismatch = e.refPixels > 0 ? double(e.mismatchPixels) / double(e.refPixels) : 0.0;
   return e;
 }

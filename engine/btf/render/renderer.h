@@ -263,6 +263,10 @@ class RenderScene {
 /// pixels.
 struct ImageError {
   double relRmse = 0, coverageMismatch = 0;
+  /// Over the pixels both images cover fully (alpha ≥ 0.999): the shading without the
+  /// silhouettes' partly covered pixels, which one sample per pixel cannot resolve.
+  double relRmseInterior = 0;
+  int64_t interiorPixels = 0;
   int64_t refPixels = 0, mismatchPixels = 0;
   int64_t extraPixels = 0;  // of the mismatch: covered by the image, not by the reference
 };
