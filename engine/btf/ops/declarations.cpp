@@ -266,7 +266,10 @@ std::vector<CommandDecl> build() {
         str("components", "0", "component counts (0 = from the target)"),
         fl("target_ratio", 0, 0, 1e6, "codec target ratio (with --codecs)"),
         fl("target_rmse", 0, 0, 1, "codec target relative RMSE"),
-        en("colour_model", "ycc", {"ycc", "rgb"}, "rgb or ycc")};
+        en("colour_model", "ycc", {"ycc", "rgb"}, "rgb or ycc"),
+        flag("mip",
+             "with --codecs: each codec's texel pyramid too (size, time, error per level; "
+             "docs/mip.md)")};
     cs.push_back(c);
   }
   {

@@ -1,6 +1,7 @@
 // The accuracy-vs-time study: the simulator's knobs against the path tracer and, with --codecs,
 // the compression knobs on the base configuration's BTF.
 #include <btf/compress/compress.h>
+#include <btf/compress/mip.h>
 #include <btf/core/output_lock.h>
 #include <btf/core/sysinfo.h>
 #include <btf/ops/internal.h>
@@ -134,9 +135,44 @@ void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o) 
                    {"seconds", row.seconds},
                    {"pareto", row.pareto}});
   }
-  std::filesystem::remove(raw);
   c.rep.json["compression"] = arr;
   c.rep.text += t + "wrote " + dir + "/compression.csv, compression.md\n";
+  if (r.b("mip")) {
+    // The pyramid (docs/mip.md) of each codec setting at the same target: its size against the
+    // single-level file, its time (levels built, encoded, measured) and every level's error.
+    std::ofstream pm(dir + "/pyramid.md");
+    pm << "# Texel pyramids: " << scene.name << ", " << o.nu << "x" << o.nv << " texels, "
+       << o.base.dirs << "\n\nEach level's error against the exact box-filtered level of the "
+       << "uncompressed simulation.\n\n| codec | bytes | vs single level | levels built | "
+          "total time | relative RMSE per level (level 0 first) |\n|---|---|---|---|---|---|\n";
+    json pj = json::array();
+    std::string pt = "pyramids (--mip): codec, bytes, vs single, level errors\n";
+    for (size_t k = 0; k < settings.size(); ++k) {
+      PyramidReport rep;
+      const CompressedBtf b = compressPyramid(raw, settings[k], c.progress(), c.ctx.cancel, &rep);
+      const double vs = double(rep.fileBytes) / double(std::max<uint64_t>(1, rows[k].bytes));
+      json lv = json::array();
+      std::string errs;
+      for (const auto& l : rep.levels) {
+        lv.push_back({{"texels", {l.nu, l.nv}}, {"relative_rmse", l.relRmse}});
+        errs += (errs.empty() ? "" : " / ") + format("%.2f %%", 100 * l.relRmse);
+      }
+      pm << format("| %s | %llu | %.2f× | %.2f s | %.1f s | %s |\n", settings[k].codec.c_str(),
+                   (unsigned long long)rep.fileBytes, vs, rep.levelSeconds, rep.seconds,
+                   errs.c_str());
+      pt += format("%-8s %10llu %6.2fx  %s\n", settings[k].codec.c_str(),
+                   (unsigned long long)rep.fileBytes, vs, errs.c_str());
+      pj.push_back({{"codec", settings[k].codec},
+                    {"bytes", rep.fileBytes},
+                    {"size_vs_single_level", vs},
+                    {"level_seconds", rep.levelSeconds},
+                    {"seconds", rep.seconds},
+                    {"levels", lv}});
+    }
+    c.rep.json["pyramid"] = pj;
+    c.rep.text += pt + "wrote " + dir + "/pyramid.md\n";
+  }
+  std::filesystem::remove(raw);
 }
 
 }  // namespace

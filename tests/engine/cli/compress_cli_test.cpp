@@ -124,7 +124,8 @@ TEST(BtfsimCompress, StudySweepsCodecsAndComponents) {
   ASSERT_EQ(test::runBtfsim("study " + scenePath("bumps") + " -o " + dir.string() +
                                 " -q --texels 6 --dirs 4x8 --spp 1 --shadows map "
                                 "--network-voxels 0 --gather 4 --links 16 --bounces 1 "
-                                "--reference-spp 8 --codecs nmf,svd,tensor --components 1,4",
+                                "--reference-spp 8 --codecs nmf,svd,tensor --components 1,4 "
+                                "--mip",
                             &out),
             0)
       << out;
@@ -159,6 +160,27 @@ TEST(BtfsimCompress, StudySweepsCodecsAndComponents) {
   EXPECT_FALSE(std::filesystem::exists(dir / "base.btf"));
   EXPECT_NE(test::readFile(dir / "compression.md").find("| svd |"), std::string::npos);
   EXPECT_NE(test::readFile(dir / "compression.md").find("| tensor |"), std::string::npos);
+  // --mip: each setting's pyramid, 6² → 3² → 2² → 1², every level's error (finite, < 100 %).
+  std::istringstream pm(test::readFile(dir / "pyramid.md"));
+  int rows = 0;
+  while (std::getline(pm, line)) {
+    if (line.rfind("| nmf |", 0) != 0 && line.rfind("| svd |", 0) != 0 &&
+        line.rfind("| tensor |", 0) != 0)
+      continue;
+    ++rows;
+    const std::string errs = line.substr(line.rfind("| ", line.size() - 3) + 2);
+    std::istringstream e(errs);
+    std::string tok;
+    int levels = 0;
+    while (e >> tok)
+      if (tok != "/" && tok != "%" && tok != "|") {
+        const double v = std::stod(tok);
+        EXPECT_TRUE(v >= 0 && v < 100) << line;
+        ++levels;
+      }
+    EXPECT_EQ(levels, 4) << line;
+  }
+  EXPECT_EQ(rows, 6);
 }
 
 }  // namespace
