@@ -136,6 +136,7 @@ ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, 
   // This rank's texels: a contiguous share.
   const int64_t lo = T * comm.rank() / comm.size(), hi = T * (comm.rank() + 1) / comm.size();
   ProgressReporter pr("compare", hi - lo, progress);
+  std::vector<double> texSe(size_t(hi - lo), 0.0), texSr(size_t(hi - lo), 0.0);
   // A damaged chunk in one rank's share fails every rank together (no collective inside).
   collectively(comm, [&] {
     parallelForChunks(
@@ -144,36 +145,38 @@ ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, 
           const int64_t t0 = lo + b0, t1 = lo + b1;
           std::vector<float> x(lv * 3), y(lv * 3);
           std::vector<double> dirs(lv, 0.0);
-          double se = 0, sr = 0, pk = 0, mx = 0;
+          double pk = 0, mx = 0;
           for (int64_t t = t0; t < t1; ++t) {
             ref.texel(t, x.data());
             test.texel(t, y.data());
-            double te = 0;
+            double te = 0, tr = 0;
             for (size_t k = 0; k < lv; ++k) {
               double de = 0;
               for (int c = 0; c < 3; ++c) {
                 const double xv = x[k * 3 + size_t(c)], d = xv - y[k * 3 + size_t(c)];
                 de += d * d;
-                sr += xv * xv;
+                tr += xv * xv;
                 pk = std::max(pk, xv);
                 mx = std::max(mx, std::abs(d));
               }
               dirs[k] += de;
               te += de;
             }
-            se += te;
+            texSe[size_t(t - lo)] = te;
+            texSr[size_t(t - lo)] = tr;
             r.texelRmse[size_t(t)] = float(std::sqrt(te / double(lv * 3)));
             pr.add(1);
           }
           std::lock_guard<std::mutex> lock(mutex);
           for (size_t k = 0; k < lv; ++k) dirSum[k] += dirs[k];
-          sumErr += se;
-          sumRef += sr;
           peak = std::max(peak, pk);
           maxAbs = std::max(maxAbs, mx);
         },
         cancel);
     if (cancel && cancel->cancelled()) throw Cancelled("compare");
+    // The totals in texel order, whatever the threads' chunks: the same bytes every run (a
+    // pyramid's header holds them).
+    for (size_t k = 0; k < texSe.size(); ++k) sumErr += texSe[k], sumRef += texSr[k];
   });
   pr.finish();
   if (comm.distributed()) {

@@ -168,7 +168,11 @@ std::vector<CommandDecl> build() {
                 "compress while simulating with this codec (nmf, svd, perview, lpca, tensor); "
                 "the output is a .cbtf and no raw BTF is written")});
     append(c.options, codecOptions(false));
-    append(c.options, {flag("resume", "continue an interrupted run from OUTPUT.partial")});
+    append(c.options,
+           {flag("mip",
+                 "with --compress: a pyramid of texel levels (docs/mip.md); level 0 goes "
+                 "through the temporary store OUTPUT.level0.btf, removed once it is written"),
+            flag("resume", "continue an interrupted run from OUTPUT.partial")});
     cs.push_back(c);
   }
   {

@@ -1,6 +1,7 @@
 // Use cases of the simulator: simulate (into a store, or streamed into a codec), plan, bench and
 // brdf. The only place where the simulator's chunks meet an encoder and a writer.
 #include <btf/compress/compress.h>
+#include <btf/compress/mip.h>
 #include <btf/core/input_file.h>
 #include <btf/core/sysinfo.h>
 #include <btf/ops/internal.h>
@@ -117,11 +118,77 @@ std::string clusterText(const json& cl) {
   return t + "\n";
 }
 
+namespace {
+
+// simulate --compress C --mip (docs/mip.md): the store, then its pyramid, then no store.
+void simulatePyramid(const Call& c, SimulationJob& job, const SimEstimate& est,
+                     const std::string& level0) {
+  const Request& r = c.r;
+  const std::string& output = r.s("output");
+  const CodecSettings cs = codecSettings(r, r.s("compress"));
+  c.notice("--mip: level 0 goes to the temporary store " + level0 +
+           " (removed once the pyramid is written; --resume continues it)");
+  const auto start = Clock::now();
+  const SimReport sr = job.run(level0, est, c.ctx.cancel);
+  if (!sr.resumeNote.empty()) c.warn(sr.resumeNote);
+  PyramidReport rep;
+  const CompressedBtf b = compressPyramid(level0, cs, c.progress(), c.ctx.cancel, &rep);
+  c.ctx.check("encoder");
+  writeCompressed(output, b);
+  std::error_code ec;
+  std::filesystem::remove(level0, ec);
+  const double wall = since(start);
+  const uint64_t rss = peakRssBytes();
+  warnTarget(c, b);
+  json& j = c.rep.json;
+  j["codec"] = json::parse(b.paramsJson);
+  j["stats"] = json::parse(b.statsJson);
+  j["wall_seconds"] = wall;
+  if (sr.adaptive) j["samples"] = json::parse(sr.samplingJson);
+  j["simulate_seconds"] = sr.wallSeconds;
+  j["level_seconds"] = rep.levelSeconds;
+  j["encode_seconds"] = rep.trainSeconds + rep.encodeSeconds;
+  j["finish_seconds"] = rep.finishSeconds;
+  j["raw_bytes"] = double(b.info.texels()) * b.info.texelBytes();
+  j["compressed_bytes"] = b.fileBytes();
+  j["ratio"] = b.ratio();
+  j["peak_memory_bytes"] = rss;
+  json lv = json::array();
+  std::string t =
+      format(
+          "wrote %s (a pyramid of %zu texel levels)\n  wall %s: simulation %s, "
+          "levels %s, encoding %s, finish %s\n",
+          output.c_str(), b.levels.size(), formatSeconds(wall).c_str(),
+          formatSeconds(sr.wallSeconds).c_str(), formatSeconds(rep.levelSeconds).c_str(),
+          formatSeconds(rep.trainSeconds + rep.encodeSeconds).c_str(),
+          formatSeconds(rep.finishSeconds).c_str()) +
+      samplingText(sr) + compressedText(b, wall, rss);
+  for (size_t k = 0; k < rep.levels.size(); ++k) {
+    const auto& e = rep.levels[k];
+    lv.push_back(
+        {{"level", k}, {"texels", {e.nu, e.nv}}, {"relative_rmse", e.relRmse}, {"rmse", e.rmse}});
+    t += format("  level %-2zu %5d x %-5d relative RMSE %.3f %%\n", k, e.nu, e.nv, 100 * e.relRmse);
+  }
+  j["levels"] = lv;
+  c.rep.text = t;
+  c.rep.summary = format("wrote %s, %zu levels, ratio 1:%.0f (of level 0) in %s", output.c_str(),
+                         b.levels.size(), b.ratio(), formatSeconds(wall).c_str());
+}
+
+}  // namespace
+
 void simulate(const Call& c) {
   const Request& r = c.r;
   Comm& comm = c.ctx.processes();
   const std::string& output = r.s("output");
   const std::string codec = r.s("compress");
+  // --compress C --mip: level 0 through a temporary raw store (the levels need its rows in
+  // order), then the pyramid, then the store is removed.
+  const bool mip = r.b("mip");
+  if (mip && codec.empty()) throw Error("--mip: give --compress CODEC too (a pyramid is a .cbtf)");
+  if (mip && comm.distributed())
+    throw Error("simulate --compress --mip runs on one process: launch it without mpirun/srun");
+  const std::string level0 = output + ".level0.btf";
   // Every rank of a cluster job builds the same job (checked) and agrees before the work.
   std::unique_ptr<SimulationJob> jobPtr;
   SimOptions o;
@@ -138,14 +205,14 @@ void simulate(const Call& c) {
     }
     jobPtr = std::make_unique<SimulationJob>(scene, o);
     jobPtr->setCancel(c.ctx.cancel);
-    est = jobPtr->estimate(codec.empty() ? output : std::string());
+    est = jobPtr->estimate(codec.empty() ? output : mip ? level0 : std::string());
   });
   SimulationJob& job = *jobPtr;
   const Scene& scene = job.scene();
   requireSame(comm, "the scene and its geometry", job.sceneHash());
   job.setComm(&comm);
   c.notice("effect plan (" + o.method + "):\n" + planText(job.plan()));
-  c.notice(estimateText(est, o, !codec.empty()));
+  c.notice(estimateText(est, o, !codec.empty() && !mip));
   if (comm.distributed())
     // Every rank repeats the hit maps and the light solve; the aBRDF is shared.
     c.notice(format(
@@ -178,6 +245,10 @@ void simulate(const Call& c) {
   j["threads"] = est.threads;
   j["estimated_seconds"] = est.seconds;
   c.rep.outputs.push_back(output);
+  if (mip) {
+    simulatePyramid(c, job, est, level0);
+    return;
+  }
   if (!codec.empty()) {
     // Streamed: the training texels first, then every chunk straight into the encoder.
     const CodecSettings cs = codecSettings(r, codec);

@@ -118,6 +118,40 @@ TEST(BtfsimCompress, BadInputsAreClearErrors) {
 namespace btf {
 namespace {
 
+TEST(BtfsimCompress, SimulateCompressMipEqualsCompressMipOfTheStoreAndLeavesNoStore) {
+  // docs/mip.md: the pyramid of a simulation written in one command is the pyramid of its store,
+  // byte for byte, and the temporary level-0 store is gone; levels are read by --level.
+  const auto dir = test::tempDir("cli_compress_mip");
+  const std::string common = scenePath("bumps") + " --texels 8 --dirs 4x8 --spp 1 -q";
+  const std::string raw = (dir / "a.btf").string(), file = (dir / "file.cbtf").string(),
+                    streamed = (dir / "stream.cbtf").string();
+  std::string out;
+  ASSERT_EQ(test::runBtfsim("simulate " + common + " -o " + raw, &out), 0) << out;
+  ASSERT_EQ(test::runBtfsim("compress " + raw + " -o " + file + " --codec tensor --mip -q", &out),
+            0)
+      << out;
+  ASSERT_EQ(test::runBtfsim(
+                "simulate " + common + " -o " + streamed + " --compress tensor --mip --json", &out),
+            0)
+      << out;
+  const auto j = nlohmann::json::parse(out.substr(out.find('{')));
+  ASSERT_EQ(j.at("levels").size(), 4u);  // 8², 4², 2², 1²
+  EXPECT_FALSE(std::filesystem::exists(streamed + ".level0.btf"));
+  EXPECT_FALSE(std::filesystem::exists(streamed + ".level0.btf.partial"));
+  EXPECT_EQ(test::readFile(file), test::readFile(streamed));
+  ASSERT_EQ(test::runBtfsim("compare " + raw + " " + streamed + " --level 2 --json -q", &out), 0)
+      << out;
+  const auto e = nlohmann::json::parse(out.substr(out.find('{')));
+  EXPECT_EQ(e.at("level"), 2);
+  EXPECT_NEAR(e.at("relative_rmse").get<double>(),
+              j.at("levels").at(2).at("relative_rmse").get<double>(), 1e-9);
+  // Without --compress there is nothing to make a pyramid of.
+  ASSERT_NE(
+      test::runBtfsim("simulate " + common + " -o " + (dir / "b.btf").string() + " --mip", &out),
+      0);
+  EXPECT_NE(out.find("--mip: give --compress CODEC too"), std::string::npos) << out;
+}
+
 TEST(BtfsimCompress, StudySweepsCodecsAndComponents) {
   const auto dir = test::tempDir("cli_compress_study");
   std::string out;
