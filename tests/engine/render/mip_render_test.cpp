@@ -93,6 +93,36 @@ TEST(MipRender, APlaneAtKnownDistancesSelectsTheExpectedLevels) {
   EXPECT_EQ(img.lod[size_t(H / 2) * size_t(H) + size_t(H / 2)], 0.f);
 }
 
+TEST(MipRender, OneFilteredSampleApproachesTheSupersampledPixel) {
+  // A tiled plane where a pixel covers ~30 texels: at 1 sample per pixel the levels' box
+  // averages stand in for the 64 samples a supersampled pixel averages; point sampling cannot.
+  const TileGeometry tile = [] {
+    BtfReader r(bumps());
+    return buildTileGeometry(parseScene(r.info().sceneJson, bumps(), ""));
+  }();
+  BtfSampler btf(bumps(), "", false, uint64_t(1) << 30, nullptr, true);
+  RenderSettings s;
+  s.width = s.height = 40;
+  s.camTheta = 35, s.camPhi = -90;
+  s.tiling = 8;
+  auto render = [&](bool mip, int spp) {
+    RenderSettings t = s;
+    t.mip = mip;
+    t.spp = spp;
+    const RenderScene rs(makeObject("plane"), tile.Lx, tile.Ly, tile.zmin, tile.zmax, t);
+    return rs.renderFlat(btf, nullptr, nullptr);
+  };
+  const RenderImage ref = render(false, 64), point = render(false, 1), mip = render(true, 1);
+  size_t any = 0;
+  for (size_t p = 0; p < mip.lod.size(); ++p) any += mip.lod[p] > 0.5f;
+  EXPECT_GT(any, mip.lod.size() / 4);  // coarse levels were used
+  const ImageError ep = compareImages(point, ref), em = compareImages(mip, ref);
+  EXPECT_GT(em.interiorPixels, 400);
+  EXPECT_LT(em.relRmseInterior, 0.10);
+  EXPECT_LT(em.relRmseInterior, 0.5 * ep.relRmseInterior)
+      << "mip " << em.relRmseInterior << " point " << ep.relRmseInterior;
+}
+
 TEST(MipRender, TrilinearLookupsMatchEachLevelAndAreContinuousAcrossLevels) {
   BtfSampler btf(bumps(), "", false, uint64_t(1) << 30, nullptr, true);
   const DVec3 wo = glm::normalize(DVec3(0.3, -0.2, 0.9)),
