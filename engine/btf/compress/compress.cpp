@@ -103,12 +103,16 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
     return out;
   }
   r.finishSeconds = since(f0);
-  r.seconds = since(start);
-  r.peakRssBytes = peakRssBytes();
-  r.fileBytes = out.fileBytes();
-  r.ratio = out.ratio();
+  finishReport(&r, out, since(start));
   if (report) *report = r;
   return out;
+}
+
+void finishReport(CompressReport* r, const CompressedBtf& out, double seconds) {
+  r->seconds = seconds;
+  r->peakRssBytes = peakRssBytes();
+  r->fileBytes = out.fileBytes();
+  r->ratio = out.ratio();
 }
 
 ErrorReport compareBtfs(const Decoder& ref, const Decoder& test, bool progress, int worst,

@@ -22,6 +22,10 @@ struct CompressReport {
   uint64_t commBytes = 0;
 };
 
+/// Fills the report's totals from the finished file (time since `start` in seconds, peak
+/// memory, bytes, ratio).
+void finishReport(CompressReport* r, const CompressedBtf& out, double seconds);
+
 /// Encodes every texel of a raw store (training texels first). Progress on stderr when asked.
 /// With a distributed `comm` (docs/cluster.md) every rank reads and trains on the training
 /// texels, encodes its share of the chunks (contiguous), and the encoder finishes over the ranks

@@ -452,10 +452,7 @@ CompressedBtf compressPyramid(const std::string& inPath, const CodecSettings& s,
     st["levels"] = lv;
     out.statsJson = st.dump();
   }
-  r.seconds = since(start);
-  r.peakRssBytes = peakRssBytes();
-  r.fileBytes = out.fileBytes();
-  r.ratio = out.ratio();
+  finishReport(&r, out, since(start));
   if (report) *report = r;
   return out;
 }

@@ -52,6 +52,18 @@ std::string errorText(const ErrorReport& e) {
 
 }  // namespace
 
+std::string levelsReport(const PyramidReport& rep, json* levels) {
+  *levels = json::array();
+  std::string t;
+  for (size_t k = 0; k < rep.levels.size(); ++k) {
+    const auto& e = rep.levels[k];
+    levels->push_back(
+        {{"level", k}, {"texels", {e.nu, e.nv}}, {"relative_rmse", e.relRmse}, {"rmse", e.rmse}});
+    t += format("  level %-2zu %5d x %-5d relative RMSE %.3f %%\n", k, e.nu, e.nv, 100 * e.relRmse);
+  }
+  return t;
+}
+
 namespace {
 
 // `compress --mip`: one process (a cluster job refuses it in run.cpp's checks).
@@ -83,23 +95,15 @@ void compressMip(const Call& c, const CodecSettings& cs) {
   j["ratio"] = rep.ratio;
   j["pyramid_ratio"] = rawAll / double(std::max<uint64_t>(1, rep.fileBytes));
   j["peak_memory_bytes"] = rep.peakRssBytes;
-  json lv = json::array();
-  std::string t = "wrote " + r.s("output") + " (a pyramid of " + std::to_string(b.levels.size()) +
-                  " texel levels)\n" + compressedText(b, rep.seconds, rep.peakRssBytes) +
-                  format(
-                      "  pyramid: raw %s (%.3f× level 0) -> 1:%.0f of the pyramid's raw "
-                      "bytes; levels built in %s\n",
-                      formatBytes(rawAll).c_str(), rawAll / raw0,
-                      rawAll / double(std::max<uint64_t>(1, rep.fileBytes)),
-                      formatSeconds(rep.levelSeconds).c_str());
-  for (size_t k = 0; k < rep.levels.size(); ++k) {
-    const auto& e = rep.levels[k];
-    lv.push_back(
-        {{"level", k}, {"texels", {e.nu, e.nv}}, {"relative_rmse", e.relRmse}, {"rmse", e.rmse}});
-    t += format("  level %-2zu %5d x %-5d relative RMSE %.3f %%\n", k, e.nu, e.nv, 100 * e.relRmse);
-  }
-  j["levels"] = lv;
-  c.rep.text = t;
+  c.rep.text = "wrote " + r.s("output") + " (a pyramid of " + std::to_string(b.levels.size()) +
+               " texel levels)\n" + compressedText(b, rep.seconds, rep.peakRssBytes) +
+               format(
+                   "  pyramid: raw %s (%.3f× level 0) -> 1:%.0f of the pyramid's raw "
+                   "bytes; levels built in %s\n",
+                   formatBytes(rawAll).c_str(), rawAll / raw0,
+                   rawAll / double(std::max<uint64_t>(1, rep.fileBytes)),
+                   formatSeconds(rep.levelSeconds).c_str()) +
+               levelsReport(rep, &j["levels"]);
   c.rep.summary =
       format("wrote %s, %zu levels, ratio 1:%.0f (of level 0) in %s, level 0 relative RMSE %.2f %%",
              r.s("output").c_str(), b.levels.size(), b.ratio(), formatSeconds(rep.seconds).c_str(),

@@ -75,6 +75,8 @@ json planJson(const EffectPlan& p) {
 // Also the studio's warning: the codec's own stage already exceeds the target.
 void warnTarget(const Call& c, const CompressedBtf& b);
 std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss);
+/// A pyramid's levels and their errors: the report's lines, and `levels` as JSON.
+std::string levelsReport(const PyramidReport& rep, json* levels);
 
 json clusterJson(Comm& comm, int64_t texels, double texelBytes, uint64_t commBytes,
                  double seconds) {
@@ -153,24 +155,14 @@ void simulatePyramid(const Call& c, SimulationJob& job, const SimEstimate& est,
   j["compressed_bytes"] = b.fileBytes();
   j["ratio"] = b.ratio();
   j["peak_memory_bytes"] = rss;
-  json lv = json::array();
-  std::string t =
-      format(
-          "wrote %s (a pyramid of %zu texel levels)\n  wall %s: simulation %s, "
-          "levels %s, encoding %s, finish %s\n",
-          output.c_str(), b.levels.size(), formatSeconds(wall).c_str(),
-          formatSeconds(sr.wallSeconds).c_str(), formatSeconds(rep.levelSeconds).c_str(),
-          formatSeconds(rep.trainSeconds + rep.encodeSeconds).c_str(),
-          formatSeconds(rep.finishSeconds).c_str()) +
-      samplingText(sr) + compressedText(b, wall, rss);
-  for (size_t k = 0; k < rep.levels.size(); ++k) {
-    const auto& e = rep.levels[k];
-    lv.push_back(
-        {{"level", k}, {"texels", {e.nu, e.nv}}, {"relative_rmse", e.relRmse}, {"rmse", e.rmse}});
-    t += format("  level %-2zu %5d x %-5d relative RMSE %.3f %%\n", k, e.nu, e.nv, 100 * e.relRmse);
-  }
-  j["levels"] = lv;
-  c.rep.text = t;
+  c.rep.text = format(
+                   "wrote %s (a pyramid of %zu texel levels)\n  wall %s: simulation %s, "
+                   "levels %s, encoding %s, finish %s\n",
+                   output.c_str(), b.levels.size(), formatSeconds(wall).c_str(),
+                   formatSeconds(sr.wallSeconds).c_str(), formatSeconds(rep.levelSeconds).c_str(),
+                   formatSeconds(rep.trainSeconds + rep.encodeSeconds).c_str(),
+                   formatSeconds(rep.finishSeconds).c_str()) +
+               samplingText(sr) + compressedText(b, wall, rss) + levelsReport(rep, &j["levels"]);
   c.rep.summary = format("wrote %s, %zu levels, ratio 1:%.0f (of level 0) in %s", output.c_str(),
                          b.levels.size(), b.ratio(), formatSeconds(wall).c_str());
 }
