@@ -95,6 +95,9 @@ void compressMip(const Call& c, const CodecSettings& cs) {
   j["ratio"] = rep.ratio;
   j["pyramid_ratio"] = rawAll / double(std::max<uint64_t>(1, rep.fileBytes));
   j["peak_memory_bytes"] = rep.peakRssBytes;
+  // Level 0 against the input, measured with every level (--compare adds nothing more).
+  j["error"] = {
+      {"level", 0}, {"rmse", rep.levels[0].rmse}, {"relative_rmse", rep.levels[0].relRmse}};
   c.rep.text = "wrote " + r.s("output") + " (a pyramid of " + std::to_string(b.levels.size()) +
                " texel levels)\n" + compressedText(b, rep.seconds, rep.peakRssBytes) +
                format(
