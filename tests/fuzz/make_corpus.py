@@ -198,6 +198,9 @@ def meshes():
     mesh("regressions", "off_binary.off", "off", b"OFF BINARY\n" + struct.pack(">3i", 3, 1, 0))
     mesh("regressions", "off_inf_vertex.off", "off", "OFF\n3 1 0\ninf 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
     mesh("regressions", "off_formfeed_header.off", "off", "OFF\f0 0 20 \n \n")
+    # Carriage returns inside the header line: OpenMesh read other counts and reserved 9.6 GB.
+    mesh("regressions", "off_carriage_returns_header.off", "off",
+         b"OFF\r\r\r\r\r\r\r0 0 7   4 7\x9d")
     mesh("regressions", "unknown_extension_byte", "obj", "")
 
 

@@ -7,6 +7,8 @@
 #include <btf/io/image_io.h>
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include "test_util.h"
 
 namespace btf {
@@ -108,6 +110,31 @@ TEST(Builders, ArraysAndTransformsPlaceCopies) {
   for (const Vec3& p : g.mesh.pos)
     found |= std::abs(p.x - 0.55f) < 1e-5f && std::abs(p.y - 0.8f) < 1e-5f;
   EXPECT_TRUE(found);
+}
+
+}  // namespace
+}  // namespace btf
+
+namespace btf {
+namespace {
+
+TEST(MeshFiles, OffWithCrlfLoadsAndCarriageReturnsInsideTheHeaderAreRefused) {
+  const auto dir = test::tempDir("mesh_off_cr");
+  const std::string crlf = (dir / "crlf.off").string(), bad = (dir / "cr.off").string();
+  std::ofstream(crlf, std::ios::binary) << "OFF\r\n3 1 0\r\n0 0 0\r\n1 0 0\r\n0 1 0\r\n3 0 1 2\r\n";
+  const TriMesh m = loadMeshFile(crlf, false, 100);
+  EXPECT_EQ(m.pos.size(), 3u);
+  EXPECT_EQ(m.tri.size(), 1u);
+  // OpenMesh read other counts from such a header and reserved 9.6 GB (a fuzzer's input).
+  std::ofstream(bad, std::ios::binary) << "OFF\r\r\r\r\r\r\r0 0 7   4 7\x9d";
+  try {
+    loadMeshFile(bad, false, 100);
+    FAIL() << "carriage returns inside the header accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("a control character in the header line"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace
