@@ -159,10 +159,7 @@ bool checkGlsl(const ObjectView& app, int samples, double tolerance, json* resul
   std::vector<std::unique_ptr<Decoder>> owned;
   std::vector<const Decoder*> levels;
   if (filtered) {
-    CompressedBtf strip = cb;
-    strip.info = pyramidInfo(cb.info);
-    strip.levels.clear();
-    std::shared_ptr<const Decoder> all = makeDecoder(std::move(strip));
+    std::shared_ptr<const Decoder> all = makeDecoder(asStrip(cb));
     for (size_t k = 0; k < cb.levels.size(); ++k) {
       owned.push_back(pyramidLevel(all, cb.info, int(k)));
       levels.push_back(owned.back().get());

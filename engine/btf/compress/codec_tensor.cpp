@@ -856,10 +856,7 @@ TensorGpuTables tensorGpuTables(const CompressedBtf& c, uint64_t maxMatrixFloats
   if (!c.levels.empty()) {
     // A pyramid: the tables of every level's texels, level 0's first (what a shader indexing
     // texels u + Nu·v reads).
-    CompressedBtf strip = c;
-    strip.info = pyramidInfo(c.info);
-    strip.levels.clear();
-    return TensorDecoder(strip).gpuTables(maxMatrixFloats);
+    return TensorDecoder(asStrip(c)).gpuTables(maxMatrixFloats);
   }
   return TensorDecoder(c).gpuTables(maxMatrixFloats);
 }

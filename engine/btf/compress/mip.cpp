@@ -256,19 +256,18 @@ std::unique_ptr<Decoder> pyramidLevel(std::shared_ptr<const Decoder> strip, cons
                                         L[size_t(level)].first);
 }
 
+CompressedBtf asStrip(CompressedBtf c) {
+  c.info = pyramidInfo(c.info);
+  c.levels.clear();
+  return c;
+}
+
 std::unique_ptr<Decoder> makePyramidDecoder(CompressedBtf c, int level) {
   const BtfInfo base = c.info;
   const std::string where = c.source.empty() ? std::string("compressed BTF") : c.source;
   checkLevel(where, level, c.levels.size());
-  c.info = pyramidInfo(base);
-  c.levels.clear();
-  std::shared_ptr<const Decoder> strip = makeDecoder(std::move(c));
+  std::shared_ptr<const Decoder> strip = makeDecoder(asStrip(std::move(c)));
   return pyramidLevel(std::move(strip), base, level);
-}
-
-std::unique_ptr<Decoder> memoryLevel(BtfInfo info, std::vector<float> values, std::string kind) {
-  auto data = std::make_shared<const std::vector<float>>(std::move(values));
-  return std::make_unique<MemoryLevel>(std::move(info), std::move(data), 0, std::move(kind));
 }
 
 std::unique_ptr<Decoder> openBtfLevel(const std::string& path, int level, uint64_t memoryBudget,
@@ -430,10 +429,7 @@ CompressedBtf compressPyramid(const std::string& inPath, const CodecSettings& s,
   out.levels = L;
   // Each level's error against the exact level (level 0 = the store itself).
   {
-    CompressedBtf strip = out;
-    strip.info = S;
-    strip.levels.clear();
-    std::shared_ptr<const Decoder> dec = makeDecoder(std::move(strip));
+    std::shared_ptr<const Decoder> dec = makeDecoder(asStrip(out));
     nlohmann::ordered_json lv = nlohmann::ordered_json::array();
     for (int k = 0; k <= K; ++k) {
       const BtfInfo li = levelInfo(I, L[size_t(k)]);

@@ -37,6 +37,10 @@ std::vector<std::vector<float>> vmfLevels(const std::vector<float>& vmf, int nDi
 /// The geometry a codec sees for a pyramid: the levels' texels as one strip (nu = all of them,
 /// nv = 1), the rest of the base's header kept.
 BtfInfo pyramidInfo(const BtfInfo& base);
+/// A pyramid file as the one strip of texels its codec coded (pyramidInfo, no levels): what
+/// its codec's decoder and GPU tables read.
+CompressedBtf asStrip(CompressedBtf pyramid);
+
 /// `base` with level k's texel grid.
 BtfInfo levelInfo(const BtfInfo& base, const MipLevel& level);
 
@@ -46,16 +50,12 @@ std::unique_ptr<Decoder> pyramidLevel(std::shared_ptr<const Decoder> strip, cons
                                       int level);
 /// Level `level` of a pyramid file (c.levels non-empty); makeDecoder(c) is its level 0.
 std::unique_ptr<Decoder> makePyramidDecoder(CompressedBtf c, int level);
-/// A level held in memory (values texel-major, level's geometry in `info`).
-std::unique_ptr<Decoder> memoryLevel(BtfInfo info, std::vector<float> values, std::string kind);
 
 /// Level `level` of a BTF file: a pyramid .cbtf decodes its own; a raw store or a single-level
 /// .cbtf box-filters it from level 0 (in memory, refused past memoryBudget). Level 0 is
 /// openBtf(path). btf::Error names the level range.
 std::unique_ptr<Decoder> openBtfLevel(const std::string& path, int level, uint64_t memoryBudget = 0,
                                       bool progress = false, const CancelToken* cancel = nullptr);
-/// Levels a file has (a pyramid .cbtf: its own; otherwise those box filtering can build).
-int fileLevelCount(const std::string& path);
 
 /// The footprint rule shared by the CPU renderer and the GLSL decoder (docs/mip.md): a pixel
 /// sample's footprint, axes of lengths la, lb in level-0 texels, is covered by na × nb taps at its

@@ -66,9 +66,7 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
     CompressedBtf c = readCompressed(path);
     if (!c.levels.empty()) {
       base = c.info;
-      c.info = pyramidInfo(base);
-      c.levels.clear();
-      strip = makeDecoder(std::move(c));
+      strip = makeDecoder(asStrip(std::move(c)));
       dec = pyramidLevel(strip, base, 0);
     } else {
       dec = makeDecoder(std::move(c));

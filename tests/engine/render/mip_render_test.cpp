@@ -50,11 +50,13 @@ const std::string& bumps() {
   return path;
 }
 
+TileGeometry bumpsTile() {
+  BtfReader r(bumps());
+  return buildTileGeometry(parseScene(r.info().sceneJson, bumps(), ""));
+}
+
 TEST(MipRender, APlaneAtKnownDistancesSelectsTheExpectedLevels) {
-  const TileGeometry tile = [] {
-    BtfReader r(bumps());
-    return buildTileGeometry(parseScene(r.info().sceneJson, bumps(), ""));
-  }();
+  const TileGeometry tile = bumpsTile();
   BtfSampler btf(bumps(), "", false, uint64_t(1) << 30, nullptr, true);
   ASSERT_EQ(btf.levels(), 5);  // 16² … 1²
   const ObjectMesh plane = makeObject("plane");
@@ -96,10 +98,7 @@ TEST(MipRender, APlaneAtKnownDistancesSelectsTheExpectedLevels) {
 TEST(MipRender, OneFilteredSampleApproachesTheSupersampledPixel) {
   // A tiled plane where a pixel covers ~30 texels: at 1 sample per pixel the levels' box
   // averages stand in for the 64 samples a supersampled pixel averages; point sampling cannot.
-  const TileGeometry tile = [] {
-    BtfReader r(bumps());
-    return buildTileGeometry(parseScene(r.info().sceneJson, bumps(), ""));
-  }();
+  const TileGeometry tile = bumpsTile();
   BtfSampler btf(bumps(), "", false, uint64_t(1) << 30, nullptr, true);
   RenderSettings s;
   s.width = s.height = 40;
@@ -162,16 +161,15 @@ TEST(MipRender, TrilinearLookupsMatchEachLevelAndAreContinuousAcrossLevels) {
   for (int i = 0; i <= 400; ++i) {
     fp.lod = 4.0 * i / 400;
     const Rgb v = btf.eval(x, y, wo, wi, &fp);
-    if (i) EXPECT_LT(std::abs(v.x - prev.x), 0.05 * scale) << "lod " << fp.lod;
+    if (i) {
+      EXPECT_LT(std::abs(v.x - prev.x), 0.05 * scale) << "lod " << fp.lod;
+    }
     prev = v;
   }
 }
 
 TEST(MipRender, CoarseVisibilityLevelsNeverShrinkTheSilhouette) {
-  const TileGeometry tile = [] {
-    BtfReader r(bumps());
-    return buildTileGeometry(parseScene(r.info().sceneJson, bumps(), ""));
-  }();
+  const TileGeometry tile = bumpsTile();
   BtfSampler btf(bumps(), "", false, uint64_t(1) << 30, nullptr, true);
   // A sphere seen from the side with tall relief: grazing rays over the silhouette.
   RenderSettings s;
