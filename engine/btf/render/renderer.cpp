@@ -234,7 +234,8 @@ BtfSampler::Footprint BtfSampler::footprint(const glm::dvec2& dx, const glm::dve
   const double lb = glm::length(glm::dvec2(dy.x / m_Lx * m_nu, dy.y / m_Ly * m_nv));
   const TexelFilter t = texelFilter(la, lb, maxAniso, levels());
   f.lod = t.lod;
-  f.a = dx, f.b = dy, f.na = t.na, f.nb = t.nb;  // one tap: at the centre, a and b unused
+  f.na = t.na, f.nb = t.nb;
+  if (std::isfinite(la) && std::isfinite(lb)) f.a = dx, f.b = dy;  // one tap: a, b unused
   return f;
 }
 
