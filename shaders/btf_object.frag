@@ -1,6 +1,7 @@
-// The object viewer's fragment stage (after #version and btf_decode.glsl): a per-pixel tangent
-// frame from the derivatives of position and uv, the light and view directions in that frame,
-// the decoded aBRDF times cos θi (radiance for unit irradiance), exposure and tone mapping.
+// The object viewer's fragment stage (after #version, btf_decode.glsl and btf_display.glsl): a
+// per-pixel tangent frame from the derivatives of position and uv, the light and view
+// directions in that frame, the decoded aBRDF times cos θi (radiance for unit irradiance),
+// exposure and tone mapping.
 in vec3 v_pos;
 in vec3 v_normal;
 in vec2 v_uv;
@@ -8,28 +9,9 @@ uniform vec3 u_lightDir;  // toward the light (world, unit)
 uniform vec3 u_eye;
 uniform float u_tiling;   // tiles per unit of uv
 uniform float u_exposure;
-uniform int u_toneMap;    // 0 clamp, 1 Reinhard, 2 ACES-like filmic
 uniform int u_bilinear;
 uniform int u_showLevel;  // 1: the texel level in false colour (levelColour)
 out vec4 o_colour;
-
-// btf::levelColour: 0 blue, 1 cyan, 2 green, 3 yellow, 4 red, 5+ magenta.
-vec3 levelColour(float level) {
-  vec3 ramp[6] = vec3[6](vec3(0.1, 0.2, 1.0), vec3(0.0, 0.9, 0.9), vec3(0.1, 0.9, 0.1),
-                         vec3(1.0, 0.9, 0.0), vec3(1.0, 0.15, 0.0), vec3(0.9, 0.0, 0.9));
-  float l = clamp(level, 0.0, 5.0);
-  int k = min(4, int(l));
-  return mix(ramp[k], ramp[k + 1], l - float(k));
-}
-
-vec3 toneMap(vec3 c) {
-  if (u_toneMap == 1) return c / (1.0 + c);
-  if (u_toneMap == 2) {
-    vec3 a = c * (2.51 * c + 0.03), b = c * (2.43 * c + 0.59) + 0.14;
-    return clamp(a / b, 0.0, 1.0);
-  }
-  return clamp(c, 0.0, 1.0);
-}
 
 void main() {
   vec3 n = normalize(v_normal);

@@ -2,6 +2,7 @@
 // them: a panel is handed its own state and the few shared things it reads (panels.h).
 #pragma once
 #include <btf/compress/compress.h>
+#include <btf/render/renderer.h>
 
 #include <array>
 #include <chrono>
@@ -55,6 +56,7 @@ struct InspectorState {
 struct ObjectState {
   std::string shape = "sphere";  // an object of btf/render/objects.h
   std::string loadedShape;
+  float radius = 1;  // the loaded object's bounding radius
   gl::Mesh mesh;
   float yaw = 0.6f, pitch = 0.5f, distance = 3.2f;
   float lightTheta = 40, lightPhi = 30;  // degrees, in the camera's frame
@@ -74,6 +76,16 @@ struct ObjectState {
   int bands = 16;  // bands of rows per pass, sized from the last pass to ~20 ms a frame
   int band = -1;   // next band to render; -1 when the pass is complete
   double passMs = 0;
+  // The GPU view: 0 flat (the BTF looked up on the base surface), 1 mapped (the shell march of
+  // shaders/btf_shell.glsl: silhouettes through the raw store's visibility map).
+  int view = 0;
+  double viewMs[2] = {0, 0};  // the last whole pass of each view (its bands follow from it)
+  gl::Program mappedProgram;
+  std::string shellKey, shellError;  // what the shell tables were built for; why they could not be
+  ShellGpuTables shell;              // offsets and counts (the data lives in shellBuf)
+  gl::TextureBuffer shellBuf, vmfBuf;
+  bool shellHasVmf = false;
+  int vmfDirZ = 0;  // offset of the directions' z in vmfBuf
   // The CPU renderer (btfsim render, docs/render.md) on the same view, as a background job:
   // exact | mapped | flat side by side (or one mode), its image and its report's summary.
   int cpuMode = 0;  // all, exact, mapped, flat

@@ -405,10 +405,28 @@ bool App::scriptStep() {
            obj.mip = a.value("mip", obj.mip);
            obj.showLevel = a.value("show_level", obj.showLevel);
            obj.tiling = a.value("tiling", obj.tiling);
+           // The GPU view (flat or mapped: the shell march) and the relief scale.
+           if (a.contains("view")) {
+             const std::string v = a["view"];
+             if (v != "flat" && v != "mapped")
+               return fail("object: view must be \"flat\" or \"mapped\", got \"" + v + "\"");
+             obj.view = v == "mapped" ? 1 : 0;
+           }
+           obj.reliefScale = a.value("relief_scale", obj.reliefScale);
+           for (const char* k : {"yaw", "pitch", "light_theta", "light_phi"})
+             if (a.contains(k) && !a[k].is_number())
+               return fail(std::string("object: ") + k + " must be a number");
+           obj.yaw = a.value("yaw", obj.yaw);
+           obj.pitch = a.value("pitch", obj.pitch);
+           obj.lightTheta = a.value("light_theta", obj.lightTheta);
+           obj.lightPhi = a.value("light_phi", obj.lightPhi);
            m_scriptWaitFrames = 2;
-           // Then wait for the banded pass to complete (the panel must be open).
+           // Then wait for the banded pass to complete (the panel must be open), unless
+           // "wait": 0 (frames measured while it runs).
+           if (a.contains("wait") && a["wait"] == 0) return std::nullopt;
            m_waitFor = [this] {
-             return !panels["Objects"] ||
+             // A mapped view that cannot be drawn shows its message instead: nothing to wait for.
+             return !panels["Objects"] || (obj.view == 1 && !obj.shellError.empty()) ||
                     (obj.band < 0 && !obj.renderedKey.empty() && obj.loadedShape == obj.shape);
            };
            m_waitDeadline = Clock::now() + std::chrono::seconds(300);
@@ -443,6 +461,20 @@ bool App::scriptStep() {
            m_report["check_glsl_" + objectView().insp.cbtf->codec +
                     (objectView().insp.cbtf->levels.empty() ? "" : "_mip")] = result;
            if (!ok) return fail("GLSL decoder differs from the CPU decoder: " + result.dump());
+           return std::nullopt;
+         }},
+        {"check_mapped",
+         [&]() -> std::optional<bool> {
+           const json& c = a["check_mapped"];
+           const json size = c.value("size", json::array({64, 48}));
+           json result;
+           const bool ok =
+               checkMapped(objectView(), size.at(0).get<int>(), size.at(1).get<int>(),
+                           c.value("max_differing", 0.005), c.value("max_mismatch", 0.01), &result);
+           m_report["check_mapped"] = result;
+           m_report["check_mapped_" + obj.shape] = result;
+           if (!ok)
+             return fail("the GLSL mapped view differs from the CPU renderer: " + result.dump());
            return std::nullopt;
          }},
         {"measure_frames",

@@ -7,6 +7,8 @@
 #include <btf/core/rng.h>
 #include <btf/directions/direction_set.h>
 #include <btf/io/image_io.h>
+#include <btf/render/objects.h>
+#include <btf/render/renderer.h>
 #include <imgui.h>
 
 #include <algorithm>
@@ -25,8 +27,11 @@ using nlohmann::json;
 
 namespace {
 
-std::string decoderFragment(const std::string& body) {
-  return "#version 330 core\n" + shaderSource("btf_decode.glsl") + "\n" + shaderSource(body);
+// The decoder, then the given pieces, in one fragment shader.
+std::string decoderFragment(std::initializer_list<const char*> pieces) {
+  std::string src = "#version 330 core\n" + shaderSource("btf_decode.glsl") + "\n";
+  for (const char* p : pieces) src += shaderSource(p) + "\n";
+  return src;
 }
 
 // Uploads the compressed arrays as texture buffers and sets the decoder's uniforms; `levels`:
@@ -143,12 +148,192 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
   prog.setInts("u_ringFirst", first.data(), int(first.size()));
 }
 
+constexpr uint64_t kShellBudget = uint64_t(1) << 30;  // the tile's triangles, the shell's
+
+// The shell tables of the current object, tiling and relief scale for the mapped view (and the
+// raw store's visibility map), rebuilt when one of them changes; false with o.shellError set
+// when they cannot be built (no visibility map, a folding shell, …).
+bool ensureShell(const ObjectView& app) {
+  ObjectState& o = app.obj;
+  char key[1024];
+  std::snprintf(key, sizeof key, "%s|%.6f|%.6f|%s|%s", o.shape.c_str(), o.tiling, o.reliefScale,
+                app.insp.compressed.c_str(), app.insp.reference.c_str());
+  if (key == o.shellKey) return o.shellError.empty();
+  o.shellKey = key;
+  o.shellError.clear();
+  try {
+    const CompressedBtf& c = *app.insp.cbtf;
+    const BtfTile tile = tileOfBtf(c.info, app.insp.compressed, kShellBudget);
+    const RenderScene rs(btf::makeObject(o.shape), tile.geometry.Lx, tile.geometry.Ly,
+                         tile.geometry.zmin, tile.geometry.zmax, viewerRenderSettings(o, 64, 64));
+    VmfTable v;
+    if (!tile.flat) {
+      if (app.insp.reference.empty())
+        throw Error(
+            "the mapped view needs the visibility map of the raw store this BTF was "
+            "compressed from: open the .cbtf with its reference (Inspector), or simulate with "
+            "--vmf on");
+      v = readVmfTable(app.insp.reference, c.info, app.insp.compressed);
+    }
+    o.shell = rs.gpuTables();
+    o.shellBuf.set(o.shell.data.data(), o.shell.data.size(), false);
+    o.shell.data = {};
+    o.shellHasVmf = !tile.flat;
+    o.vmfDirZ = int(v.map.size());
+    v.map.insert(v.map.end(), v.dirZ.begin(), v.dirZ.end());
+    if (v.map.empty()) v.map.push_back(0);
+    o.vmfBuf.set(v.map.data(), v.map.size(), false);
+  } catch (const std::exception& e) {
+    o.shellError = e.what();
+  }
+  return o.shellError.empty();
+}
+
+// The shell, the visibility map, the camera and the light of the mapped program (units 16, 17:
+// the decoder holds 0–15).
+void bindShell(const ObjectState& o, const gl::Program& prog, const RenderSettings& s) {
+  prog.bindBuffer("u_shell", o.shellBuf, 16);
+  prog.bindBuffer("u_vmf", o.vmfBuf, 17);
+  const ShellGpuTables& g = o.shell;
+  prog.set("u_oVertex", g.oVertex);
+  prog.set("u_oFace", g.oFace);
+  prog.set("u_oPrism", g.oPrism);
+  prog.set("u_oFrame", g.oFrame);
+  prog.set("u_oNormal", g.oNormal);
+  prog.set("u_oNode", g.oNode);
+  prog.set("u_oLeaf", g.oLeaf);
+  prog.set("u_nNodes", g.nodes);
+  prog.set("u_hasVmf", o.shellHasVmf ? 1 : 0);
+  prog.set("u_oDirZ", o.vmfDirZ);
+  prog.set("u_Lx", float(g.Lx));
+  prog.set("u_Ly", float(g.Ly));
+  prog.set("u_hlo", float(g.hlo));
+  prog.set("u_hhi", float(g.hhi));
+  // Float precision: a step of a few ulps of the camera distance past each crossed face (the
+  // CPU's double march steps 2e-6 of the radius).
+  const CameraFrame cam = cameraFrame(s, o.radius);
+  prog.set("u_eps", float(std::max(g.eps, 4e-7 * glm::length(cam.pos))));
+  const DVec3 L = lightDirection(s);
+  prog.set("u_light", float(L.x), float(L.y), float(L.z));
+  prog.set("u_camPos", float(cam.pos.x), float(cam.pos.y), float(cam.pos.z));
+  prog.set("u_camFwd", float(cam.fwd.x), float(cam.fwd.y), float(cam.fwd.z));
+  prog.set("u_camRight", float(cam.right.x), float(cam.right.y), float(cam.right.z));
+  prog.set("u_camUp", float(cam.up.x), float(cam.up.y), float(cam.up.z));
+  prog.set("u_hw", float(cam.hw));
+  prog.set("u_hh", float(cam.hh));
+  prog.set("u_persp", cam.perspective ? 1 : 0);
+  prog.set("u_size", float(s.width), float(s.height));
+}
+
+void buildMappedProgram(ObjectState& o) {
+  if (!o.mappedProgram.valid())
+    o.mappedProgram.build(
+        "btf_mapped", shaderSource("fullscreen.vert"),
+        decoderFragment({"btf_display.glsl", "btf_shell.glsl", "btf_mapped.frag"}));
+}
+
 }  // namespace
+
+RenderSettings viewerRenderSettings(const ObjectState& o, int w, int h) {
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  RenderSettings s;
+  s.width = w, s.height = h, s.spp = 1;
+  s.perspective = true, s.fovDeg = 35;
+  s.zoom = std::max(1e-3, 1.05 * o.radius / (std::sin(17.5 / kDeg) * o.distance));
+  s.camTheta = 90 - o.pitch * kDeg, s.camPhi = o.yaw * kDeg;
+  s.lightTheta = o.lightTheta, s.lightPhi = o.lightPhi + o.yaw * kDeg;
+  s.tiling = o.tiling, s.reliefScale = o.reliefScale;
+  s.mip = false;
+  return s;
+}
+
+bool checkMapped(const ObjectView& app, int w, int h, double maxDiffering, double maxMismatch,
+                 json* result) {
+  if (!app.insp.cbtf) throw Error("check_mapped: open a compressed BTF first");
+  ObjectState& o = app.obj;
+  if (o.loadedShape != o.shape) throw Error("check_mapped: show the object first (object action)");
+  if (!ensureShell(app)) throw Error("check_mapped: " + o.shellError);
+  buildMappedProgram(o);
+  const RenderSettings s = viewerRenderSettings(o, w, h);
+  // The GPU: linear radiance and coverage, one ray through each pixel's centre; level 0.
+  gl::Framebuffer fb;
+  fb.resize(w, h, true);
+  fb.begin(0, 0, 0, 0);
+  bindDecoder(app, o.mappedProgram, false);
+  bindShell(o, o.mappedProgram, s);
+  o.mappedProgram.set("u_raw", 1);
+  o.mappedProgram.set("u_showLevel", 0);
+  o.mappedProgram.set("u_bilinear", 1);
+  const auto t0 = std::chrono::steady_clock::now();
+  gl::drawFullscreen();
+  const auto px = fb.readFloat();
+  const double gpuMs =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  gl::Framebuffer::end(app.width, app.height);
+  // The CPU: the renderer's mapped mode on the same view and file (one sample at each centre).
+  const CompressedBtf& c = *app.insp.cbtf;
+  const BtfTile tile = tileOfBtf(c.info, app.insp.compressed, kShellBudget);
+  const RenderScene rs(btf::makeObject(o.shape), tile.geometry.Lx, tile.geometry.Ly,
+                       tile.geometry.zmin, tile.geometry.zmax, s);
+  const BtfSampler sampler(app.insp.compressed, tile.flat ? "" : app.insp.reference, tile.flat,
+                           kShellBudget);
+  const RenderImage cpu = rs.renderMapped(sampler, nullptr, nullptr);
+  RenderImage gpu;
+  gpu.width = w, gpu.height = h;
+  gpu.rgb.resize(size_t(w) * size_t(h) * 3);
+  gpu.alpha.resize(size_t(w) * size_t(h));
+  for (int y = 0; y < h; ++y)  // GL's row 0 is the bottom
+    for (int x = 0; x < w; ++x) {
+      const size_t src = (size_t(h - 1 - y) * size_t(w) + size_t(x)) * 4,
+                   dst = size_t(y) * size_t(w) + size_t(x);
+      for (int k = 0; k < 3; ++k) gpu.rgb[dst * 3 + size_t(k)] = px[src + size_t(k)];
+      gpu.alpha[dst] = px[src + 3];
+    }
+  const ImageError e = compareImages(gpu, cpu);
+  double maxAbs = 0, peak = 0;
+  int64_t both = 0;
+  for (size_t p = 0; p < gpu.alpha.size(); ++p) {
+    if (!(gpu.alpha[p] >= 0.5f && cpu.alpha[p] >= 0.5f)) continue;
+    ++both;
+    for (int k = 0; k < 3; ++k) {
+      const double g = gpu.rgb[p * 3 + size_t(k)], r = cpu.rgb[p * 3 + size_t(k)];
+      maxAbs = std::max(maxAbs, std::abs(g - r));
+      peak = std::max(peak, std::abs(r));
+    }
+  }
+  // Pixels that differ by more than 1 % of the peak (a march decision taken differently in
+  // float than in double: a shadow, a relief hit at a prism edge).
+  int64_t differing = 0;
+  for (size_t p = 0; p < gpu.alpha.size(); ++p) {
+    if (!(gpu.alpha[p] >= 0.5f && cpu.alpha[p] >= 0.5f)) continue;
+    double d = 0;
+    for (int k = 0; k < 3; ++k)
+      d = std::max(d, double(std::abs(gpu.rgb[p * 3 + size_t(k)] - cpu.rgb[p * 3 + size_t(k)])));
+    if (d > 0.01 * peak) ++differing;
+  }
+  *result = {{"object", o.shape},
+             {"size", {w, h}},
+             {"covered_pixels_cpu", e.refPixels},
+             {"covered_pixels_both", both},
+             {"coverage_mismatch", e.coverageMismatch},
+             {"mismatch_pixels", e.mismatchPixels},
+             {"rel_rmse", e.relRmse},
+             {"rel_rmse_interior", e.relRmseInterior},
+             {"max_abs", maxAbs},
+             {"peak", peak},
+             {"differing_pixels", differing},
+             {"gpu_ms", gpuMs},
+             {"cpu_ms", cpu.seconds * 1000},
+             {"max_differing", maxDiffering},
+             {"max_mismatch", maxMismatch}};
+  return e.refPixels > 0 && double(differing) <= maxDiffering * double(both) &&
+         e.coverageMismatch <= maxMismatch;
+}
 
 bool checkGlsl(const ObjectView& app, int samples, double tolerance, json* result) {
   if (!app.insp.cbtf || !app.insp.decoder) throw Error("check_glsl: open a compressed BTF first");
   gl::Program prog;
-  prog.build("btf_check", shaderSource("fullscreen.vert"), decoderFragment("btf_check.frag"));
+  prog.build("btf_check", shaderSource("fullscreen.vert"), decoderFragment({"btf_check.frag"}));
   const CompressedBtf& cb = *app.insp.cbtf;
   const BtfInfo& I = cb.info;
   // A pyramid: the filtered decode over its levels (level selection, taps, trilinear) against
@@ -244,6 +429,14 @@ void drawObjectViewer(const ObjectView& app) {
     ImGui::EndCombo();
   }
   ImGui::SameLine();
+  ImGui::SetNextItemWidth(80);
+  ImGui::Combo("view", &o.view, "flat\0mapped\0");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "flat: the BTF on the base surface. mapped: rays marched through the shell of the "
+        "relief (silhouettes, the relief's own shadows; needs the raw store's visibility map, "
+        "docs/render.md)");
+  ImGui::SameLine();
   ImGui::SetNextItemWidth(90);
   ImGui::SliderFloat("tiling", &o.tiling, 0.25f, 16, "%.2f", ImGuiSliderFlags_Logarithmic);
   ImGui::SameLine();
@@ -308,10 +501,11 @@ void drawObjectViewer(const ObjectView& app) {
       o.mesh.set(m.vertices, m.indices);
       o.loadedShape = o.shape;
       o.distance = 3.2f * m.radius;
+      o.radius = m.radius;
     }
     if (!o.program.valid() && o.programError.empty())
       o.program.build("btf_object", shaderSource("btf_object.vert"),
-                      decoderFragment("btf_object.frag"));
+                      decoderFragment({"btf_display.glsl", "btf_object.frag"}));
   } catch (const std::exception& e) {
     o.programError = e.what();
   }
@@ -347,16 +541,38 @@ void drawObjectViewer(const ObjectView& app) {
             h = std::max(32, int(dispH * o.renderScale));
   // The GPU decode is heavy on llvmpipe: render only when something changed.
   char key[512];
-  std::snprintf(key, sizeof key, "%s|%s|%d|%d|%.4f|%.4f|%.4f|%.3f|%.3f|%.4f|%.4f|%d|%d|%d|%d",
+  std::snprintf(key, sizeof key,
+                "%s|%s|%d|%d|%.4f|%.4f|%.4f|%.3f|%.3f|%.4f|%.4f|%d|%d|%d|%d|%d|%.4f|%s",
                 o.shape.c_str(), o.bound.c_str(), w, h, o.yaw, o.pitch, o.distance, o.lightTheta,
                 o.lightPhi, o.exposure, o.tiling, o.toneMap, o.bilinear ? 1 : 0, o.mip ? 1 : 0,
-                o.showLevel ? 1 : 0);
+                o.showLevel ? 1 : 0, o.view, o.reliefScale, app.insp.reference.c_str());
+  // The mapped view: the shell's tables (rebuilt when the object, tiling or relief changes) and
+  // its program; a message instead of the image when they cannot be made.
+  const bool mapped = o.view == 1;
+  if (mapped) {
+    try {
+      buildMappedProgram(o);
+    } catch (const std::exception& e) {
+      o.programError = e.what();
+    }
+    if (!ensureShell(app)) {
+      ImGui::TextColored(ImVec4(1, 0.4f, 0.3f, 1), "mapped view: %s", o.shellError.c_str());
+      ImGui::End();
+      return;
+    }
+  }
   // A changed view restarts the pass; the pass renders a band of rows per frame so the UI keeps
   // its frame rate while llvmpipe decodes (the status bar shows the whole pass's time).
   if (key != o.renderedKey || o.bound != app.insp.compressed) {
     o.renderedKey = key;
     o.band = 0;
-    if (o.frameMs > 0) o.bands = std::clamp(int(std::ceil(o.frameMs / 20.0)), 1, 64);
+    // Bands from the last pass of this view (the mapped march costs far more than the flat
+    // lookup; its first pass starts with one band per 4 rows).
+    const double lastMs = o.viewMs[mapped ? 1 : 0];
+    if (lastMs > 0)
+      o.bands = std::clamp(int(std::ceil(lastMs / 20.0)), 1, std::max(1, h));
+    else if (mapped)
+      o.bands = std::max(1, h / 4);
     o.passMs = 0;
     o.fb.resize(w, h, false);
     o.fb.begin(0.08f, 0.08f, 0.1f, 1);
@@ -377,18 +593,30 @@ void drawObjectViewer(const ObjectView& app) {
     gl::begin3d();
     gl::scissor(0, y0, w, y1 - y0);
     try {
-      bindDecoder(app, o.program, o.mip);
-      o.program.set("u_showLevel", o.showLevel ? 1 : 0);
-      o.program.setMat4("u_viewProj", glm::value_ptr(vp));
-      o.program.setMat4("u_model", glm::value_ptr(model));
-      o.program.set("u_lightDir", std::sin(lt) * std::cos(lp + o.yaw),
-                    std::sin(lt) * std::sin(lp + o.yaw), std::cos(lt));
-      o.program.set("u_eye", eye.x, eye.y, eye.z);
-      o.program.set("u_tiling", o.tiling);
-      o.program.set("u_exposure", o.exposure);
-      o.program.set("u_toneMap", o.toneMap);
-      o.program.set("u_bilinear", o.bilinear ? 1 : 0);
-      o.mesh.draw();
+      if (mapped) {
+        const gl::Program& mp = o.mappedProgram;
+        bindDecoder(app, mp, o.mip);
+        bindShell(o, mp, viewerRenderSettings(o, w, h));
+        mp.set("u_raw", 0);
+        mp.set("u_showLevel", o.showLevel ? 1 : 0);
+        mp.set("u_bilinear", o.bilinear ? 1 : 0);
+        mp.set("u_exposure", o.exposure);
+        mp.set("u_toneMap", o.toneMap);
+        gl::drawFullscreen();
+      } else {
+        bindDecoder(app, o.program, o.mip);
+        o.program.set("u_showLevel", o.showLevel ? 1 : 0);
+        o.program.setMat4("u_viewProj", glm::value_ptr(vp));
+        o.program.setMat4("u_model", glm::value_ptr(model));
+        o.program.set("u_lightDir", std::sin(lt) * std::cos(lp + o.yaw),
+                      std::sin(lt) * std::sin(lp + o.yaw), std::cos(lt));
+        o.program.set("u_eye", eye.x, eye.y, eye.z);
+        o.program.set("u_tiling", o.tiling);
+        o.program.set("u_exposure", o.exposure);
+        o.program.set("u_toneMap", o.toneMap);
+        o.program.set("u_bilinear", o.bilinear ? 1 : 0);
+        o.mesh.draw();
+      }
     } catch (const std::exception& e) {
       o.programError = e.what();
     }
@@ -398,10 +626,14 @@ void drawObjectViewer(const ObjectView& app) {
     gl::Framebuffer::end(app.width, app.height);
     o.passMs +=
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (o.band == 0)  // the first band of a pass (a new program's compile lands here)
+      app.act.report()[mapped ? "object_first_band_ms_mapped" : "object_first_band_ms"] = o.passMs;
     if (++o.band == o.bands) {
       o.band = -1;
       o.frameMs = o.passMs;
-      app.act.report()["object_pass_ms"] = o.frameMs;
+      o.viewMs[mapped ? 1 : 0] = o.passMs;
+      app.act.report()[mapped ? "object_pass_ms_mapped" : "object_pass_ms"] = o.frameMs;
+      app.act.report()["object_pass_bands"] = o.bands;
     }
   }
   ImGui::Image(o.fb.imguiId(), ImVec2(dispW, dispH), ImVec2(0, 1), ImVec2(1, 0));

@@ -80,6 +80,17 @@ void drawStudyPanel(const StudyView& app);
 /// Renders the GLSL decoder into a float target at `samples` random (x, y, ωi, ωo) and compares
 /// with the CPU decoder (the script's check_glsl action).
 bool checkGlsl(const ObjectView& app, int samples, double tolerance, nlohmann::json* result);
+/// The renderer's settings for the viewer's view at w × h pixels: the orbit camera (perspective
+/// 35°, its distance as a zoom), the light (turning with the camera), tiling, relief scale; one
+/// sample per pixel at its centre, no texel levels.
+RenderSettings viewerRenderSettings(const ObjectState& o, int w, int h);
+/// Renders the GLSL mapped view (the shell march) at w × h into a float target and the CPU
+/// renderer's mapped mode on the same view (one sample at each pixel's centre), and compares
+/// them pixel by pixel (the script's check_mapped action): true when at most `maxDiffering` of
+/// the pixels both cover differ by more than 1 % of the peak (float vs double decisions: a
+/// shadow or a hit at a prism's edge) and the coverage differs on at most `maxMismatch`.
+bool checkMapped(const ObjectView& app, int w, int h, double maxDiffering, double maxMismatch,
+                 nlohmann::json* result);
 /// One option of a request edited through its declaration: drags within the declared range,
 /// combos for choices, a checkbox for flags, text for the rest; the doc is the tooltip. A
 /// refused value leaves the request as it was and puts the engine's message in `error`.

@@ -127,22 +127,18 @@ void render(const Call& c) {
   std::string sceneHash;
   std::unique_ptr<BtfSampler> btf;
   const bool needBtf = mode != "exact";
+  TileGeometry tile;
+  bool flatTile = false;
   if (sceneInput) {
     scene = loadScene(input);
+    tile = buildTileGeometry(scene, budget);
   } else {
-    BtfInfo info;
-    if (isCompressedFile(input))
-      info = readCompressed(input).info;
-    else
-      info = BtfReader(input).info();
-    if (info.sceneJson.empty())
-      throw Error(input + ": the file carries no scene, so the object's relief is unknown");
-    scene = parseScene(info.sceneJson, input + " (its scene)", fs::path(input).parent_path());
+    const BtfInfo info =
+        isCompressedFile(input) ? readCompressed(input).info : BtfReader(input).info();
+    BtfTile t = tileOfBtf(info, input, budget);
+    scene = std::move(t.scene), tile = std::move(t.geometry), flatTile = t.flat;
     sceneHash = info.sceneHash;
   }
-  const TileGeometry tile = buildTileGeometry(scene, budget);
-  const bool flatTile = tile.zmax - tile.zmin <= 1e-9f * float(std::max(tile.Lx, tile.Ly)) &&
-                        std::abs(tile.zmax) <= 1e-9f * float(std::max(tile.Lx, tile.Ly));
   if (needBtf) {
     btf = std::make_unique<BtfSampler>(input, r.s("vmf"), flatTile, budget, c.ctx.cancel,
                                        s.mip || s.forceLevel >= 0);

@@ -5,6 +5,7 @@
 #include <btf/core/format.h>
 #include <btf/core/run_context.h>
 #include <btf/directions/direction_set.h>
+#include <btf/geometry/tile_builder.h>
 #include <btf/render/renderer.h>
 #include <btf/store/btf_store.h>
 
@@ -15,6 +16,7 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -45,6 +47,56 @@ double cross2(const glm::dvec2& a, const glm::dvec2& b) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------- sampler
+
+namespace {
+// Every direction's map of a raw store, one after the other; a damaged entry never reaches a
+// pixel.
+std::vector<float> vmfMaps(const BtfReader& r, int nDirs) {
+  std::vector<float> all;
+  all.reserve(size_t(nDirs) * size_t(r.info().texels()) * 2);
+  for (int d = 0; d < nDirs; ++d) {
+    std::vector<float> v = r.readVmf(d);
+    for (float& x : v)
+      if (!std::isfinite(x)) x = 0;
+    all.insert(all.end(), v.begin(), v.end());
+  }
+  return all;
+}
+}  // namespace
+
+BtfTile tileOfBtf(const BtfInfo& info, const std::string& path, uint64_t memoryBudget) {
+  if (info.sceneJson.empty())
+    throw Error(path + ": the file carries no scene, so the object's relief is unknown");
+  BtfTile t;
+  t.scene =
+      parseScene(info.sceneJson, path + " (its scene)", std::filesystem::path(path).parent_path());
+  t.geometry = buildTileGeometry(t.scene, memoryBudget);
+  const TileGeometry& g = t.geometry;
+  const float tiny = 1e-9f * float(std::max(g.Lx, g.Ly));
+  t.flat = g.zmax - g.zmin <= tiny && std::abs(g.zmax) <= tiny;
+  return t;
+}
+
+VmfTable readVmfTable(const std::string& vmfPath, const BtfInfo& I, const std::string& ofPath) {
+  BtfReader r(vmfPath);
+  const BtfInfo& V = r.info();
+  if (V.nu != I.nu || V.nv != I.nv || V.directionSet != I.directionSet ||
+      V.sceneHash != I.sceneHash)
+    throw Error(
+        format("%s: its visibility map does not belong to %s (texels %dx%d vs %dx%d, "
+               "directions %s vs %s, scene %s vs %s)",
+               vmfPath.c_str(), ofPath.c_str(), V.nu, V.nv, I.nu, I.nv, V.directionSet.c_str(),
+               I.directionSet.c_str(), V.sceneHash.c_str(), I.sceneHash.c_str()));
+  if (!V.hasVmf) throw Error(vmfPath + ": this BTF has no visibility map either");
+  VmfTable t;
+  t.nu = V.nu, t.nv = V.nv, t.nDirs = V.nDirs();
+  t.map = vmfMaps(r, t.nDirs);
+  const DirectionSet set = DirectionSet::fromName(V.directionSet);
+  if (set.size() != t.nDirs)
+    throw Error(vmfPath + ": the direction set of the file does not match its header");
+  for (int d = 0; d < t.nDirs; ++d) t.dirZ.push_back(float(set[d].w.z));
+  return t;
+}
 
 Rgb levelColour(double level) {
   static const Rgb ramp[6] = {{0.1f, 0.2f, 1.f}, {0.f, 0.9f, 0.9f}, {0.1f, 0.9f, 0.1f},
@@ -80,15 +132,6 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
     throw Error(path + ": the direction set of the file does not match its header");
   m_nu = I.nu, m_nv = I.nv, m_n = I.nDirs(), m_Lx = I.Lx, m_Ly = I.Ly;
   const size_t per = size_t(m_n) * size_t(m_n) * 3;
-  auto loadVmf = [&](const BtfReader& r) {
-    m_vmf.reserve(size_t(m_n) * size_t(I.texels()) * 2);
-    for (int d = 0; d < m_n; ++d) {
-      std::vector<float> v = r.readVmf(d);
-      for (size_t k = 0; k < v.size(); ++k)
-        if (!std::isfinite(v[k])) v[k] = 0;  // a damaged map never reaches a pixel
-      m_vmf.insert(m_vmf.end(), v.begin(), v.end());
-    }
-  };
   const std::vector<MipLevel> L = mipLevels(I.nu, I.nv);
   const int K = mip ? int(L.size()) - 1 : 0;  // coarse levels wanted
   const uint64_t bytes = uint64_t(I.texels()) * I.texelBytes();
@@ -114,7 +157,7 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
                 m_data.begin() + ptrdiff_t(uint64_t(I.chunkBegin(c)) * I.texelBytes() / 4));
     }
     clean(m_data.data(), m_data.size());
-    if (I.hasVmf) loadVmf(r);
+    if (I.hasVmf) m_vmf = vmfMaps(r, m_n);
   } else if (bytes + (K ? coarseBytes : 0) <= memoryBudget / 2) {
     // A compressed BTF is decoded whole when it fits (a render reads each value many times, and
     // a texel's decode shares its work across its values); per value through the decoder
@@ -169,19 +212,7 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
     }
   }
   m_lv[0].dec = std::move(dec);
-  if (m_vmf.empty() && !vmfPath.empty()) {
-    BtfReader r(vmfPath);
-    const BtfInfo& V = r.info();
-    if (V.nu != I.nu || V.nv != I.nv || V.directionSet != I.directionSet ||
-        V.sceneHash != I.sceneHash)
-      throw Error(
-          format("%s: its visibility map does not belong to %s (texels %dx%d vs %dx%d, "
-                 "directions %s vs %s, scene %s vs %s)",
-                 vmfPath.c_str(), path.c_str(), V.nu, V.nv, I.nu, I.nv, V.directionSet.c_str(),
-                 I.directionSet.c_str(), V.sceneHash.c_str(), I.sceneHash.c_str()));
-    if (!V.hasVmf) throw Error(vmfPath + ": this BTF has no visibility map either");
-    loadVmf(r);
-  }
+  if (m_vmf.empty() && !vmfPath.empty()) m_vmf = readVmfTable(vmfPath, I, path).map;
   m_hasVmf = !m_vmf.empty();
   if (m_hasVmf && K > 0) {
     auto v = vmfLevels(m_vmf, m_n, m_nu, m_nv, K);
@@ -398,7 +429,7 @@ RenderScene::RenderScene(ObjectMesh object, double Lx, double Ly, double zmin, d
   const double pad = 1e-3 * std::max(Lx, Ly);
   m_hlo = zmin - pad, m_hhi = zmax + pad;
   m_eps = 2e-6 * R;
-  m_light = fromAngles(s.lightTheta, s.lightPhi);
+  m_light = lightDirection(s);
   const double T = s.tiling * Lx;  // tile units per uv unit
 
   // Weld vertices by position and normal: the shell's topology (seams keep their own uv).
@@ -565,25 +596,36 @@ RenderScene::RenderScene(ObjectMesh object, double Lx, double Ly, double zmin, d
 
 RenderScene::~RenderScene() = default;
 
-RenderScene::Camera RenderScene::camera() const {
-  Camera c;
-  const DVec3 toCam = fromAngles(m_s.camTheta, m_s.camPhi);
-  const double R = m_obj.radius;
+CameraFrame cameraFrame(const RenderSettings& s, double R) {
+  CameraFrame c;
+  const DVec3 toCam = fromAngles(s.camTheta, s.camPhi);
   c.fwd = -toCam;
   const DVec3 hint = std::abs(toCam.z) > 0.999 ? DVec3(0, 1, 0) : DVec3(0, 0, 1);
   c.right = glm::normalize(glm::cross(c.fwd, hint));
   c.up = glm::cross(c.right, c.fwd);
-  const double aspect = double(m_s.width) / double(m_s.height);
-  c.persp = m_s.perspective;
-  if (c.persp) {
-    const double half = deg2rad(std::clamp(m_s.fovDeg, 1.0, 170.0)) / 2;
-    const double dist = std::max(1.05 * R / std::sin(half) / m_s.zoom, 1.01 * R);
+  const double aspect = double(s.width) / double(s.height);
+  c.perspective = s.perspective;
+  if (c.perspective) {
+    const double half = deg2rad(std::clamp(s.fovDeg, 1.0, 170.0)) / 2;
+    const double dist = std::max(1.05 * R / std::sin(half) / s.zoom, 1.01 * R);
     c.pos = toCam * dist;
     c.hh = std::tan(half), c.hw = c.hh * aspect;
   } else {
     c.pos = toCam * (4 * R);
-    c.hh = 1.05 * R / m_s.zoom, c.hw = c.hh * aspect;
+    c.hh = 1.05 * R / s.zoom, c.hw = c.hh * aspect;
   }
+  return c;
+}
+
+DVec3 lightDirection(const RenderSettings& s) {
+  return fromAngles(s.lightTheta, s.lightPhi);
+}
+
+RenderScene::Camera RenderScene::camera() const {
+  const CameraFrame f = cameraFrame(m_s, m_obj.radius);
+  Camera c;
+  c.pos = f.pos, c.fwd = f.fwd, c.right = f.right, c.up = f.up;
+  c.persp = f.perspective, c.hw = f.hw, c.hh = f.hh;
   return c;
 }
 

@@ -26,6 +26,7 @@
 #include <btf/render/mesh_tracer.h>
 #include <btf/render/objects.h>
 #include <btf/scene/material.h>
+#include <btf/scene/scene.h>
 
 #include <memory>
 #include <string>
@@ -77,6 +78,58 @@ struct RenderImage {
   /// of the footprint's area in level-0 texels (−1 and 0 where nothing was looked up).
   std::vector<float> lod, footprintTexels;
 };
+
+/// The tile a BTF was simulated from: its embedded scene built into triangles, and whether the
+/// tile is flat (the reference plane alone, which needs no visibility map). Throws when the file
+/// carries no scene.
+struct BtfTile {
+  Scene scene;
+  TileGeometry geometry;
+  bool flat = false;
+};
+BtfTile tileOfBtf(const BtfInfo& info, const std::string& path, uint64_t memoryBudget);
+
+/// A raw store's visibility map (level 0) as the GLSL shell march reads it: for each direction
+/// of the set, texels × (coverage, height) (non-finite entries zeroed), and each direction's z.
+struct VmfTable {
+  int nu = 0, nv = 0, nDirs = 0;
+  std::vector<float> map, dirZ;
+};
+/// Reads the visibility map of raw store `vmfPath` for the BTF `of` (read from `ofPath`), after
+/// checking that it belongs to it (texels, directions, scene); a clear error otherwise.
+VmfTable readVmfTable(const std::string& vmfPath, const BtfInfo& of, const std::string& ofPath);
+
+/// The shell of a RenderScene flattened for the GLSL march (shaders/btf_shell.glsl): one float
+/// array (indices as floats, exact below 2^24) of sections at the given offsets —
+///  vertices: 3 per shell vertex (2·welded + level);
+///  faces:    6 per face: its 3 vertices, the prism on the normal's side, the other (−1: none),
+///            kind (0 top, 1 bottom, 2 side);
+///  prisms:   21 per prism: faces[8], welded vertices[3], neighbours[3] (−1 none), open bits,
+///            tile corners x0 y0 x1 y1 x2 y2; and 6 per prism in the frames section: its base
+///            triangle's world tile axes T, B;
+///  normals:  3 per welded vertex (unit);
+///  nodes:    8 per BVH node in depth-first order: box min, box max, the node after its subtree,
+///            and −1 (inner: its first child follows) or its leaf's offset in the leaves
+///            section, where a count precedes the leaf's face indices.
+struct ShellGpuTables {
+  std::vector<float> data;
+  int vertices = 0, faces = 0, prisms = 0, welded = 0, nodes = 0;
+  int oVertex = 0, oFace = 0, oPrism = 0, oFrame = 0, oNormal = 0, oNode = 0, oLeaf = 0;
+  double eps = 0, hlo = 0, hhi = 0, Lx = 1, Ly = 1;
+};
+
+/// The camera of a RenderScene: ray(sx, sy) (screen coordinates in [−1, 1], y up) starts at pos
+/// (perspective) or pos + right·sx·hw + up·sy·hh (orthographic).
+struct CameraFrame {
+  DVec3 pos{0}, fwd{0}, right{0}, up{0};
+  double hw = 1, hh = 1;
+  bool perspective = false;
+};
+/// The camera of settings `s` around an object of bounding radius `radius` (what every mode
+/// renders through; the studio's GPU mapped view too).
+CameraFrame cameraFrame(const RenderSettings& s, double radius);
+/// The direction toward the light of settings `s` (world, unit).
+DVec3 lightDirection(const RenderSettings& s);
 
 /// The BTF values and visibility map the flat and mapped modes read, in tile units and
 /// tile-frame directions (z up). Raw stores are read whole into memory (every chunk checksum
@@ -179,6 +232,8 @@ class RenderScene {
   RenderImage renderExact(const TileGeometry& tile, const std::vector<Material>& materials,
                           uint64_t maxTriangles, const CancelToken* cancel,
                           ProgressReporter* progress) const;
+  /// The shell and its bounding volume hierarchy for the GLSL march (the studio's mapped view).
+  ShellGpuTables gpuTables() const;
   /// Triangles the exact mode would build (an estimate, before building).
   uint64_t exactTriangleEstimate(const TileGeometry& tile) const;
 
