@@ -28,7 +28,9 @@ void main() {
   }
   uint rng = uint(gl_FragCoord.x) * 1973u + uint(gl_FragCoord.y) * 9277u + 26699u;
   MarchHit hit;
-  int m = march(o, d, 0.0, rng, hit);
+  bool lit;
+  vec3 wi;
+  int m = traceMapped(o, d, rng, hit, lit, wi);
   // The footprint from the crossings' screen derivatives (outside any branch).
   vec2 c = m == 1 ? hit.crossing.xy : vec2(0.0);
   float X = c.x / u_Lx * float(u_nu), Y = c.y / u_Ly * float(u_nv);
@@ -40,8 +42,7 @@ void main() {
     o_colour = vec4(pow(levelColour(lod), vec3(1.0 / 2.2)), 1.0);
     return;
   }
-  vec3 wi;
-  if (m == 1 && lightAt(hit, rng, wi)) {
+  if (m == 1 && lit) {
     vec3 wo = hit.wo;
     float thetaI = acos(clamp(wi.z, 0.0, 1.0)), phiI = atan(wi.y, wi.x);
     float thetaO = acos(clamp(wo.z, 0.0, 1.0)), phiO = atan(wo.y, wo.x);

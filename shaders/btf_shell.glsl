@@ -265,23 +265,31 @@ vec3 faceNormal(int f) {
   return cross(shellVertex(si(b + 1)) - a, shellVertex(si(b + 2)) - a);
 }
 
-// Follows o + t d (t > tmin) through the shell: 0 miss, 1 relief (hit filled), 2 absorbed (from
-// inside the object: its underside).
-int march(vec3 o, vec3 d, float tmin, inout uint rng, out MarchHit hit) {
+// Follows o + t d (t > tmin) through the shell from prism `cur` (−1: from outside). With
+// `relief`, RenderScene::march: 1 relief (hit filled), 2 absorbed (entering the object's
+// underside from outside), 0 miss. Without, the walk of RenderScene::lightAt: 3 when the ray
+// leaves the shell (through face h, from prism lastPrism), 0 when no face is found. One function
+// for both, called from one place (traceMapped), so the compiler inlines the march once: on
+// llvmpipe the shader's compile time grows with every inlined copy.
+int walk(vec3 o, vec3 d, float tmin, int cur, bool relief, inout uint rng, inout MarchHit hit,
+         out FaceHit h, out int lastPrism) {
   float tnear = tmin;
-  int cur = -1, last = -1;
+  int last = -1;
   bool ahead = false;
   vec3 tin = vec3(0.0), pin = vec3(0.0);
-  hit.prism = -1;
+  lastPrism = -1;
+  h.f = -1;
+  h.t = 0.0;
+  h.u = 0.0;
+  h.v = 0.0;
   for (int step = 0; step < MAX_MARCH; ++step) {
-    FaceHit h;
     if (cur < 0 || !nextFace(cur, o, d, tnear, last, h))
       if (!shellIntersect(o, d, tnear, last, h)) return 0;
     int b = u_oFace + 6 * h.f;
     bool intoFront = dot(d, faceNormal(h.f)) > 0.0;
     int from = si(b + (intoFront ? 4 : 3)), to = si(b + (intoFront ? 3 : 4));
     vec3 p = o + d * h.t;
-    if (from >= 0 && from == cur) {
+    if (relief && from >= 0 && from == cur) {
       vec3 tout = tileCoords(h.f, from, h.u, h.v);
       if (segmentHit(from, tin, tout, pin, p, d, rng, ahead, hit)) {
         hit.prism = from;
@@ -289,12 +297,16 @@ int march(vec3 o, vec3 d, float tmin, inout uint rng, out MarchHit hit) {
       }
     }
     if (to >= 0) {
-      if (cur < 0 && si(b + 5) == 1) return 2;
+      if (relief && cur < 0 && si(b + 5) == 1) return 2;
       if (cur < 0) ahead = false;  // entering the shell from outside
       cur = to;
-      tin = tileCoords(h.f, to, h.u, h.v);
+      if (relief) tin = tileCoords(h.f, to, h.u, h.v);
       pin = p;
     } else {
+      if (!relief) {
+        lastPrism = from >= 0 ? from : cur;
+        return 3;
+      }
       cur = -1;
     }
     tnear = h.t + u_eps;
@@ -303,36 +315,55 @@ int march(vec3 o, vec3 d, float tmin, inout uint rng, out MarchHit hit) {
   return 0;
 }
 
-// The tile-frame light direction at a relief hit; false when the light is blocked (out through
-// the bottom of the shell, or another part of the object in the way).
-bool lightAt(MarchHit hit, inout uint rng, out vec3 wi) {
+uniform int u_passes;  // 3: the camera's march, the light's walk, the shadow's march
+
+// The camera ray (o, d): 0 miss (background), 1 relief hit (hit filled; lit and wi: whether the
+// light reaches it and its tile-frame direction), 2 absorbed. The light's walk out of the shell
+// and the march of another part of the object that may shadow it are further passes of the same
+// loop (RenderScene::lightAt).
+int traceMapped(vec3 o, vec3 d, inout uint rng, out MarchHit hit, out bool lit, out vec3 wi) {
+  lit = false;
   wi = vec3(0, 0, 1);
-  vec3 o = hit.world, L = u_light;
-  int cur = hit.prism, last = -1;
-  float tnear = u_eps;
-  for (int step = 0; step < MAX_MARCH; ++step) {
+  hit.prism = -1;
+  int result = 0, stage = 0;
+  vec3 ro = o, rd = d;
+  float rt = 0.0;
+  int rc = -1;
+  bool relief = true;
+  for (int pass = 0; pass < u_passes; ++pass) {
+    MarchHit other;
+    other.prism = -1;
     FaceHit h;
-    if (!nextFace(cur, o, L, tnear, last, h))
-      if (!shellIntersect(o, L, tnear, last, h)) {
+    int lastPrism;
+    int r = walk(ro, rd, rt, rc, relief, rng, other, h, lastPrism);
+    if (stage == 0) {  // the camera's ray
+      result = r;
+      if (r != 1) break;
+      hit = other;
+      stage = 1;
+      ro = hit.world;
+      rd = u_light;
+      rt = u_eps;
+      rc = hit.prism;
+      relief = false;
+    } else if (stage == 1) {  // out of the shell toward the light
+      if (r == 0) {
         // The hit was placed a hair outside the shell: the light leaves from its own prism.
-        wi = tileDir(hit.prism, hit.tile, L);
-        return wi.z > 0.0;
+        wi = tileDir(hit.prism, hit.tile, u_light);
+        lit = wi.z > 0.0;
+        break;
       }
-    int b = u_oFace + 6 * h.f;
-    bool intoFront = dot(L, faceNormal(h.f)) > 0.0;
-    int from = si(b + (intoFront ? 4 : 3)), to = si(b + (intoFront ? 3 : 4));
-    if (to < 0) {
-      if (si(b + 5) == 1) return false;  // into the object: the light is behind it
-      int lastPrism = from >= 0 ? from : cur;
-      if (lastPrism < 0) return false;
-      wi = tileDir(lastPrism, tileCoords(h.f, lastPrism, h.u, h.v), L);
-      if (!(wi.z > 0.0)) return false;
-      MarchHit other;
-      return march(o, L, h.t + u_eps, rng, other) == 0;  // another part casts its shadow
+      if (si(u_oFace + 6 * h.f + 5) == 1 || lastPrism < 0) break;  // into the object
+      wi = tileDir(lastPrism, tileCoords(h.f, lastPrism, h.u, h.v), u_light);
+      if (!(wi.z > 0.0)) break;
+      stage = 2;  // does another part of the object cast its shadow?
+      rt = h.t + u_eps;
+      rc = -1;
+      relief = true;
+    } else {
+      lit = r == 0;
+      break;
     }
-    cur = to;
-    tnear = h.t + u_eps;
-    last = h.f;
   }
-  return false;
+  return result;
 }

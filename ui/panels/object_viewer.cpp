@@ -223,6 +223,7 @@ void bindShell(const ObjectState& o, const gl::Program& prog, const RenderSettin
   prog.set("u_hh", float(cam.hh));
   prog.set("u_persp", cam.perspective ? 1 : 0);
   prog.set("u_size", float(s.width), float(s.height));
+  prog.set("u_passes", 3);
 }
 
 void buildMappedProgram(ObjectState& o) {
