@@ -73,13 +73,14 @@ struct ObjectState {
   double frameMs = 0;  // GPU-inclusive time of the last object pass (rendered on change only)
   float renderScale = 0.5f;
   std::string renderedKey;
-  int bands = 16;  // bands of rows per pass, sized from the last pass to ~20 ms a frame
-  int band = -1;   // next band to render; -1 when the pass is complete
+  int band = -1;     // the next row to render (GL's, from the bottom); -1 when the pass is done
+  int bands = 0;     // bands rendered in this pass
+  int bandRows = 8;  // rows of the next band (from the cost per row of the last band)
+  double rowMs[2] = {0, 0};  // per view (flat, mapped): the last band's time per row
   double passMs = 0;
   // The GPU view: 0 flat (the BTF looked up on the base surface), 1 mapped (the shell march of
   // shaders/btf_shell.glsl: silhouettes through the raw store's visibility map).
   int view = 0;
-  double viewMs[2] = {0, 0};  // the last whole pass of each view (its bands follow from it)
   gl::Program mappedProgram;
   std::string shellKey, shellError;  // what the shell tables were built for; why they could not be
   ShellGpuTables shell;              // offsets and counts (the data lives in shellBuf)

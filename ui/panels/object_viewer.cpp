@@ -563,17 +563,17 @@ void drawObjectViewer(const ObjectView& app) {
     }
   }
   // A changed view restarts the pass; the pass renders a band of rows per frame so the UI keeps
-  // its frame rate while llvmpipe decodes (the status bar shows the whole pass's time).
+  // its frame rate while llvmpipe decodes (the status bar shows the whole pass's time). Each
+  // band's height follows the cost per row measured on the band before (at most doubling from
+  // one band to the next: rows of background cost little, rows through the object much more),
+  // aiming at kBandMs a frame.
+  constexpr double kBandMs = 10;
+  const int vi = mapped ? 1 : 0;
   if (key != o.renderedKey || o.bound != app.insp.compressed) {
     o.renderedKey = key;
     o.band = 0;
-    // Bands from the last pass of this view (the mapped march costs far more than the flat
-    // lookup; its first pass starts with one band per 4 rows).
-    const double lastMs = o.viewMs[mapped ? 1 : 0];
-    if (lastMs > 0)
-      o.bands = std::clamp(int(std::ceil(lastMs / 20.0)), 1, std::max(1, h));
-    else if (mapped)
-      o.bands = std::max(1, h / 4);
+    o.bands = 0;
+    o.bandRows = o.rowMs[vi] > 0 ? std::clamp(int(kBandMs / o.rowMs[vi]), 1, h) : (mapped ? 2 : 8);
     o.passMs = 0;
     o.fb.resize(w, h, false);
     o.fb.begin(0.08f, 0.08f, 0.1f, 1);
@@ -589,7 +589,7 @@ void drawObjectViewer(const ObjectView& app) {
     const glm::mat4 view = glm::lookAt(eye, glm::vec3(0), glm::vec3(0, 0, 1));
     const glm::mat4 vp = proj * view, model(1.0f);
     const float lt = glm::radians(o.lightTheta), lp = glm::radians(o.lightPhi);
-    const int y0 = h * o.band / o.bands, y1 = h * (o.band + 1) / o.bands;
+    const int y0 = std::min(o.band, h), y1 = std::min(h, y0 + std::max(1, o.bandRows));
     o.fb.bind();
     gl::begin3d();
     gl::scissor(0, y0, w, y1 - y0);
@@ -625,14 +625,18 @@ void drawObjectViewer(const ObjectView& app) {
     gl::end3d();
     gl::finish();
     gl::Framebuffer::end(app.width, app.height);
-    o.passMs +=
+    const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    if (o.band == 0)  // the first band of a pass (a new program's compile lands here)
-      app.act.report()[mapped ? "object_first_band_ms_mapped" : "object_first_band_ms"] = o.passMs;
-    if (++o.band == o.bands) {
+    o.passMs += ms;
+    if (o.bands == 0)  // the first band of a pass (a new program's compile lands here)
+      app.act.report()[mapped ? "object_first_band_ms_mapped" : "object_first_band_ms"] = ms;
+    ++o.bands;
+    o.rowMs[vi] = ms / double(y1 - y0);
+    o.bandRows = std::clamp(int(kBandMs / std::max(o.rowMs[vi], 1e-3)), 1, 2 * (y1 - y0));
+    o.band = y1;
+    if (o.band >= h) {
       o.band = -1;
       o.frameMs = o.passMs;
-      o.viewMs[mapped ? 1 : 0] = o.passMs;
       app.act.report()[mapped ? "object_pass_ms_mapped" : "object_pass_ms"] = o.frameMs;
       app.act.report()["object_pass_bands"] = o.bands;
     }
