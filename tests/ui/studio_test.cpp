@@ -56,6 +56,24 @@ std::string sceneFile(const std::string& name) {
   return sourceDir() + "/resources/scenes/" + name + ".json";
 }
 
+// Script actions: open a resource scene, simulate it (16² texels, 4x8 directions) to OUT.btf,
+// compress that with nmf 1:20 to OUT.cbtf (each job waited for and expected done), and open the
+// compressed file with its raw store as the reference.
+void simulateCompressOpen(json& a, const std::string& scene, const std::string& out) {
+  a.push_back({{"open", sceneFile(scene)}});
+  a.push_back({{"simulate", {{"output", out + ".btf"}, {"texels", 16}, {"directions", "4x8"}}},
+               {"wait", 300}});
+  a.push_back({{"expect_job", {{"status", "done"}}}});
+  a.push_back({{"compress",
+                {{"input", out + ".btf"},
+                 {"output", out + ".cbtf"},
+                 {"codec", "nmf"},
+                 {"target_ratio", 20}}},
+               {"wait", 300}});
+  a.push_back({{"expect_job", {{"status", "done"}}}});
+  a.push_back({{"open_compressed", out + ".cbtf"}, {"reference", out + ".btf"}});
+}
+
 }  // namespace
 
 TEST(Studio, EveryResourceSceneEditsUndoesAndScreenshots) {
@@ -119,18 +137,7 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   const auto dir = tempDir("ui_studio_jobs");
   const std::string out = (dir / "brick").string();
   json a = json::array();
-  a.push_back({{"open", sceneFile("brick")}});
-  a.push_back({{"simulate", {{"output", out + ".btf"}, {"texels", 16}, {"directions", "4x8"}}},
-               {"wait", 300}});
-  a.push_back({{"expect_job", {{"status", "done"}}}});
-  a.push_back({{"compress",
-                {{"input", out + ".btf"},
-                 {"output", out + ".cbtf"},
-                 {"codec", "nmf"},
-                 {"target_ratio", 20}}},
-               {"wait", 300}});
-  a.push_back({{"expect_job", {{"status", "done"}}}});
-  a.push_back({{"open_compressed", out + ".cbtf"}, {"reference", out + ".btf"}});
+  simulateCompressOpen(a, "brick", out);
   a.push_back({{"compare", true}, {"wait", 300}});
   a.push_back({{"codec_sweep", out + ".btf"}, {"wait", 600}});
   a.push_back({{"expect_codec_rows", int(codecNames().size())}});
@@ -232,22 +239,9 @@ TEST(Studio, MappedViewMarchesTheShellAsTheCpuRendererDoesPixelByPixel) {
   // (relief that is not a height field) on the curved section.
   const auto dir = tempDir("ui_studio_mapped");
   json a = json::array();
-  for (const char* scene : {"brick", "spheres"}) {
-    const std::string out = (dir / scene).string();
-    a.push_back({{"open", sceneFile(scene)}});
-    a.push_back({{"simulate", {{"output", out + ".btf"}, {"texels", 16}, {"directions", "4x8"}}},
-                 {"wait", 300}});
-    a.push_back({{"expect_job", {{"status", "done"}}}});
-    a.push_back({{"compress",
-                  {{"input", out + ".btf"},
-                   {"output", out + ".cbtf"},
-                   {"codec", "nmf"},
-                   {"target_ratio", 20}}},
-                 {"wait", 300}});
-    a.push_back({{"expect_job", {{"status", "done"}}}});
-    a.push_back({{"open_compressed", out + ".cbtf"}, {"reference", out + ".btf"}});
-    a.push_back({{"panel", "Objects"}});
-  }
+  for (const char* scene : {"brick", "spheres"})
+    simulateCompressOpen(a, scene, (dir / scene).string());
+  a.push_back({{"panel", "Objects"}});
   // The spheres last opened: the section seen low.
   a.push_back({{"object", "section"}, {"view", "mapped"}, {"tiling", 3}, {"pitch", 0.3}});
   a.push_back({{"check_mapped", {{"size", {80, 60}}}}});
