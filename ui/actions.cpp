@@ -140,25 +140,23 @@ int App::startExport(const std::string& input, const std::string& format,
 int App::startObjectRender(const std::string& mode, int spp, int size, const std::string& output) {
   if (insp.compressed.empty())
     throw Error("render on the CPU: open a compressed BTF first (Inspector, or a job)");
-  // The viewer's orbit camera and light (degrees; the light turns with the camera) in the
-  // renderer's terms: camera (90° − pitch, yaw), perspective 35°, the distance as a zoom.
-  constexpr double kDeg = 180.0 / 3.14159265358979323846;
-  const double radius = btf::makeObject(obj.shape).radius;
-  const double zoom = std::max(1e-3, 1.05 * radius / (std::sin(17.5 / kDeg) * obj.distance));
+  // The viewer's view in the renderer's terms (viewerRenderSettings: the same settings the GPU's
+  // mapped view and its check use).
   const int height = std::max(8, int(std::lround(size * 0.75)));
+  const RenderSettings s =
+      viewerRenderSettings(obj, btf::makeObject(obj.shape).radius, size, height);
   const std::string out = output.empty() ? form.output + "/objects_" + mode + ".png" : output;
   ops::Request req("render");
   req.set("input", insp.compressed).set("output", out).set("mode", mode);
-  req.set("object", obj.shape).set("tiling", double(obj.tiling));
-  req.set("relief_scale", double(obj.reliefScale)).set("spp", double(spp));
+  req.set("object", obj.shape).set("tiling", s.tiling);
+  req.set("relief_scale", s.reliefScale).set("spp", double(spp));
   req.set("size", std::to_string(size) + "x" + std::to_string(height));
   char angles[96];
-  std::snprintf(angles, sizeof angles, "%.6g,%.6g", 90 - obj.pitch * kDeg, obj.yaw * kDeg);
+  std::snprintf(angles, sizeof angles, "%.6g,%.6g", s.camTheta, s.camPhi);
   req.set("camera", angles);
-  std::snprintf(angles, sizeof angles, "%.6g,%.6g", double(obj.lightTheta),
-                double(obj.lightPhi) + obj.yaw * kDeg);
+  std::snprintf(angles, sizeof angles, "%.6g,%.6g", s.lightTheta, s.lightPhi);
   req.set("light", angles);
-  req.set("projection", "perspective").set("fov", 35.0).set("zoom", zoom);
+  req.set("projection", "perspective").set("fov", s.fovDeg).set("zoom", s.zoom);
   req.set("exposure", double(obj.exposure));
   if (!insp.reference.empty()) req.set("vmf", insp.reference);
   req.set("threads", double(form.threads));

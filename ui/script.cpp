@@ -400,6 +400,10 @@ bool App::scriptStep() {
          }},
         {"object",
          [&]() -> std::optional<bool> {
+           for (const char* k :
+                {"yaw", "pitch", "light_theta", "light_phi", "relief_scale", "tiling"})
+             if (a.contains(k) && !a[k].is_number())
+               return fail(std::string("object: ") + k + " must be a number");
            obj.shape = a["object"];
            // Texel levels of a pyramid file (docs/mip.md): on/off, false colour, tiling.
            obj.mip = a.value("mip", obj.mip);
@@ -413,9 +417,6 @@ bool App::scriptStep() {
              obj.view = v == "mapped" ? 1 : 0;
            }
            obj.reliefScale = a.value("relief_scale", obj.reliefScale);
-           for (const char* k : {"yaw", "pitch", "light_theta", "light_phi"})
-             if (a.contains(k) && !a[k].is_number())
-               return fail(std::string("object: ") + k + " must be a number");
            obj.yaw = a.value("yaw", obj.yaw);
            obj.pitch = a.value("pitch", obj.pitch);
            obj.lightTheta = a.value("light_theta", obj.lightTheta);
@@ -467,6 +468,11 @@ bool App::scriptStep() {
          [&]() -> std::optional<bool> {
            const json& c = a["check_mapped"];
            const json size = c.value("size", json::array({64, 48}));
+           if (!size.is_array() || size.size() != 2 || !size[0].is_number_integer() ||
+               !size[1].is_number_integer() || size[0] < 1 || size[1] < 1 || size[0] > 2048 ||
+               size[1] > 2048)
+             return fail("check_mapped: size must be [width, height], 1..2048 pixels each, got " +
+                         size.dump());
            json result;
            const bool ok =
                checkMapped(objectView(), size.at(0).get<int>(), size.at(1).get<int>(),

@@ -165,7 +165,8 @@ bool ensureShell(const ObjectView& app) {
     const CompressedBtf& c = *app.insp.cbtf;
     const BtfTile tile = tileOfBtf(c.info, app.insp.compressed, kShellBudget);
     const RenderScene rs(btf::makeObject(o.shape), tile.geometry.Lx, tile.geometry.Ly,
-                         tile.geometry.zmin, tile.geometry.zmax, viewerRenderSettings(o, 64, 64));
+                         tile.geometry.zmin, tile.geometry.zmax,
+                         viewerRenderSettings(o, o.radius, 64, 64));
     VmfTable v;
     if (!tile.flat) {
       if (app.insp.reference.empty())
@@ -235,12 +236,12 @@ void buildMappedProgram(ObjectState& o) {
 
 }  // namespace
 
-RenderSettings viewerRenderSettings(const ObjectState& o, int w, int h) {
+RenderSettings viewerRenderSettings(const ObjectState& o, double radius, int w, int h) {
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
   RenderSettings s;
   s.width = w, s.height = h, s.spp = 1;
   s.perspective = true, s.fovDeg = 35;
-  s.zoom = std::max(1e-3, 1.05 * o.radius / (std::sin(17.5 / kDeg) * o.distance));
+  s.zoom = std::max(1e-3, 1.05 * radius / (std::sin(17.5 / kDeg) * o.distance));
   s.camTheta = 90 - o.pitch * kDeg, s.camPhi = o.yaw * kDeg;
   s.lightTheta = o.lightTheta, s.lightPhi = o.lightPhi + o.yaw * kDeg;
   s.tiling = o.tiling, s.reliefScale = o.reliefScale;
@@ -255,7 +256,7 @@ bool checkMapped(const ObjectView& app, int w, int h, double maxDiffering, doubl
   if (o.loadedShape != o.shape) throw Error("check_mapped: show the object first (object action)");
   if (!ensureShell(app)) throw Error("check_mapped: " + o.shellError);
   buildMappedProgram(o);
-  const RenderSettings s = viewerRenderSettings(o, w, h);
+  const RenderSettings s = viewerRenderSettings(o, o.radius, w, h);
   // The GPU: linear radiance and coverage, one ray through each pixel's centre; level 0.
   gl::Framebuffer fb;
   fb.resize(w, h, true);
@@ -597,7 +598,7 @@ void drawObjectViewer(const ObjectView& app) {
       if (mapped) {
         const gl::Program& mp = o.mappedProgram;
         bindDecoder(app, mp, o.mip);
-        bindShell(o, mp, viewerRenderSettings(o, w, h));
+        bindShell(o, mp, viewerRenderSettings(o, o.radius, w, h));
         mp.set("u_raw", 0);
         mp.set("u_showLevel", o.showLevel ? 1 : 0);
         mp.set("u_bilinear", o.bilinear ? 1 : 0);

@@ -82,8 +82,8 @@ void drawStudyPanel(const StudyView& app);
 bool checkGlsl(const ObjectView& app, int samples, double tolerance, nlohmann::json* result);
 /// The renderer's settings for the viewer's view at w × h pixels: the orbit camera (perspective
 /// 35°, its distance as a zoom), the light (turning with the camera), tiling, relief scale; one
-/// sample per pixel at its centre, no texel levels.
-RenderSettings viewerRenderSettings(const ObjectState& o, int w, int h);
+/// sample per pixel at its centre, no texel levels. `radius`: the object's bounding radius.
+RenderSettings viewerRenderSettings(const ObjectState& o, double radius, int w, int h);
 /// Renders the GLSL mapped view (the shell march) at w × h into a float target and the CPU
 /// renderer's mapped mode on the same view (one sample at each pixel's centre), and compares
 /// them pixel by pixel (the script's check_mapped action): true when at most `maxDiffering` of
