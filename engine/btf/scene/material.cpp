@@ -20,6 +20,8 @@ Material compileMaterial(const MaterialDef& def) {
     m.ks = p.v3("specular");
     m.exponent = float(p.f("exponent"));
     m.phongNorm = (m.exponent + 8.0f) / (8.0f * kPiF);
+    if (m.exponent >= 0 && m.exponent <= 4096 && std::floor(m.exponent) == m.exponent)
+      m.wholeExponent = int(m.exponent);
     m.grey = isGrey(p.v3("diffuse")) && isGrey(m.ks);
   } else if (def.type == "cook_torrance") {
     m.type = BrdfType::CookTorrance;
@@ -136,7 +138,8 @@ Rgb evalBrdf(const Material& m, const Vec3& wi, const Vec3& wo) {
       const float l = glm::dot(h, h);
       if (l <= 1e-20f) return m.kdOverPi;
       const float ch = h.z / std::sqrt(l);
-      return m.kdOverPi + m.ks * (m.phongNorm * std::pow(std::max(ch, 0.0f), m.exponent));
+      return m.kdOverPi +
+             m.ks * (m.phongNorm * powLobe(std::max(ch, 0.0f), m.exponent, m.wholeExponent));
     }
     case BrdfType::CookTorrance: {
       Vec3 h = wi + wo;

@@ -4,6 +4,7 @@
 #include <btf/core/math.h>
 #include <btf/scene/scene.h>
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -20,6 +21,7 @@ struct Material {
   Rgb kdOverPi{0};  // diffuse albedo / π
   Rgb ks{0};
   float exponent = 0, phongNorm = 0;   // Blinn-Phong
+  int wholeExponent = -1;              // the exponent when a whole number ≤ 4096, else -1
   float alpha = 0.3f;                  // microfacet roughness
   float alphaX = 0.1f, alphaY = 0.1f;  // Ward
   Rgb f0{0.04f}, eta{1}, k{0};
@@ -28,6 +30,19 @@ struct Material {
 };
 
 Material compileMaterial(const MaterialDef& def);
+
+/// x^e for x ≥ 0 — the Blinn-Phong lobe cos^e θh. A whole exponent `whole` ≥ 0 is raised by
+/// repeated squaring (a few multiplies, no libm call: the direct kernel spent a quarter of its
+/// time in powf); otherwise std::pow.
+inline float powLobe(float x, float e, int whole) {
+  if (whole < 0) return std::pow(x, e);
+  float r = 1.0f, b = x;
+  for (unsigned n = unsigned(whole); n; n >>= 1) {
+    if (n & 1u) r *= b;
+    b *= b;
+  }
+  return r;
+}
 std::vector<Material> compileMaterials(const Scene& scene);
 
 /// f_r(ωi, ωo) with both directions in the local frame (unit vectors). Zero when either is

@@ -263,16 +263,16 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   sc.samplesUsed.assign(size_t(nL), 4);
   sc.finalLevel.assign(size_t(nL), 0);
   int64_t evals = 0;
-  for (int q = 0; q < 4; ++q) {
-    const Sample& S = sc.levels[0][size_t(q)];
-    if (!S.ok) continue;
-    for (int l = 0; l < nL; ++l) {
+  // Light by light: one light's shadow-map taps for the four samples share cache lines.
+  for (int q = 0; q < 4; ++q) evals += sc.levels[0][size_t(q)].ok ? nL : 0;
+  for (int l = 0; l < nL; ++l)
+    for (int q = 0; q < 4; ++q) {
+      const Sample& S = sc.levels[0][size_t(q)];
+      if (!S.ok) continue;
       const Rgb c = contrib(S, l);
       sc.cellRgb[size_t(l) * 4 + size_t(q)] = c;
       sc.cellY[size_t(l) * 4 + size_t(q)] = lum(c);
     }
-    evals += nL;
-  }
   const float tol = m_settings.tolerance;
   auto threshold = [&](float mean) { return tol * std::max(std::abs(mean), m_floor); };
   sc.active.resize(size_t(nL));

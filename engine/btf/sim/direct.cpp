@@ -60,14 +60,21 @@ DirectIllumination::DirectIllumination(const PeriodicTracer& tracer,
 
 float DirectIllumination::shadowMapVisibility(int l, const Vec3& p, const Vec3& ng,
                                               uint32_t prim) const {
+  return mapVisibility(l, p, std::max(glm::dot(ng, m_lights[size_t(l)].w), 1e-4f),
+                       std::sqrt(ng.x * ng.x + ng.y * ng.y), prim);
+}
+
+float DirectIllumination::mapVisibility(int l, const Vec3& p, float cn, float ngXY,
+                                        uint32_t prim) const {
   const LightInfo& L = m_lights[size_t(l)];
   const SampleGrid& g = m_maps.grid();
   // Project p along ωi onto the plane: q = p − (p.z / cos θi) ωi; r is p's distance along ωi.
   // Float is enough: even at θ = 89.9° the offset spans < 10⁴ samples (ulp < 10⁻³ sample).
   const float r = p.z * L.invCos;
   const int su = g.su(), sv = g.sv();
-  float fx = (p.x - p.z * L.slopeX) * m_toSampleX - 0.5f;
-  float fy = (p.y - p.z * L.slopeY) * m_toSampleY - 0.5f;
+  const float qx = p.x - p.z * L.slopeX, qy = p.y - p.z * L.slopeY;  // q before wrapping
+  float fx = qx * m_toSampleX - 0.5f;
+  float fy = qy * m_toSampleY - 0.5f;
   fx -= std::floor(fx * m_invSu) * float(su);
   fy -= std::floor(fy * m_invSv) * float(sv);
   int i0 = int(fx), j0 = int(fy);
@@ -77,17 +84,19 @@ float DirectIllumination::shadowMapVisibility(int l, const Vec3& p, const Vec3& 
   const int i1 = i0 + 1 == su ? 0 : i0 + 1, j1 = j0 + 1 == sv ? 0 : j0 + 1;
   // Slope-scaled bias: the depth of a plane seen from ωi changes by |n_xy| / (n·ωi) per unit of
   // plane distance, and the filter taps lie up to ~1.5 sample spacings from q.
-  const float cn = std::max(glm::dot(ng, L.w), 1e-4f);
-  const float slope = std::min(std::sqrt(ng.x * ng.x + ng.y * ng.y) / cn, 10.0f);
+  const float slope = std::min(ngXY / std::max(cn, 1e-4f), 10.0f);
   const float bias = m_settings.biasScale * m_cell * (0.25f + 1.5f * slope);
   const uint32_t* prims = m_maps.primRow(l);
   const float* depths = m_maps.depthRow(l);
+  const float rb = r + bias;
+  const size_t k00 = size_t(j0) * su + i0, k10 = size_t(j0) * su + i1;
+  const size_t k01 = size_t(j1) * su + i0, k11 = size_t(j1) * su + i1;
+  // The common case: every tap lies beyond p (lit), no triangle test needed.
+  if (rb >= depths[k00] && rb >= depths[k10] && rb >= depths[k01] && rb >= depths[k11]) return 1.0f;
   const float Lx = float(g.Lx), Ly = float(g.Ly);
-  const float qx = p.x - p.z * L.slopeX, qy = p.y - p.z * L.slopeY;  // q before wrapping
   const float copy2 = 0.25f * std::min(Lx, Ly) * std::min(Lx, Ly);
-  auto lit = [&](int i, int j) -> float {
-    const size_t k = size_t(j) * su + i;
-    if (r >= depths[k] - bias) return 1.0f;
+  auto lit = [&](int i, int j, size_t k) -> float {
+    if (rb >= depths[k]) return 1.0f;
     if (prims[k] != prim) return 0.0f;
     // A triangle is planar and cannot shadow itself — but a periodic copy of it can: at grazing
     // light the first hit toward the light is often the same triangle one period away. The
@@ -99,65 +108,122 @@ float DirectIllumination::shadowMapVisibility(int l, const Vec3& p, const Vec3& 
     const float ex = gx + d * L.w.x - p.x, ey = gy + d * L.w.y - p.y, ez = d * L.w.z - p.z;
     return ex * ex + ey * ey + ez * ez < copy2 ? 1.0f : 0.0f;
   };
-  return (lit(i0, j0) * (1 - tx) + lit(i1, j0) * tx) * (1 - ty) +
-         (lit(i0, j1) * (1 - tx) + lit(i1, j1) * tx) * ty;
+  return (lit(i0, j0, k00) * (1 - tx) + lit(i1, j0, k10) * tx) * (1 - ty) +
+         (lit(i0, j1, k01) * (1 - tx) + lit(i1, j1, k11) * tx) * ty;
 }
 
+Rgb DirectIllumination::brdf(const Material& mat, const Frame& frame, const Vec3& wo,
+                             const Vec3& wv, float cosN, float won, int l) const {
+  const Vec3& w = m_lights[size_t(l)].w;
+  if (mat.type != BrdfType::BlinnPhong) return evalBrdf(mat, frame.toLocal(w), wo);
+  const float h2 = 2.0f + 2.0f * glm::dot(w, wv);
+  if (h2 <= 1e-20f) return mat.kdOverPi;
+  const float ch = (cosN + won) / std::sqrt(h2);
+  return mat.kdOverPi + mat.ks * (mat.phongNorm * powLobe(std::min(std::max(ch, 0.0f), 1.0f),
+                                                          mat.exponent, mat.wholeExponent));
+}
+
+namespace {
+
+// One camera sample of the uniform kernel, ready to be lit.
+struct KernelSample {
+  Vec3 p, ng, n, wo;
+  Frame frame;
+  DVec3 origin;
+  const Material* mat;
+  float won, ngXY;
+  uint32_t prim;
+  int texel;
+  bool lambert;
+};
+
+}  // namespace
+
 int64_t DirectIllumination::evalTexelView(int i, int j, int view, float* out) const {
+  return evalTexelsView(&i, &j, 1, view, &out);
+}
+
+int64_t DirectIllumination::evalTexelsView(const int* ti, const int* tj, int count, int view,
+                                           float* const* out) const {
   const int nL = m_dirs.size();
-  std::fill(out, out + size_t(nL) * 3, 0.0f);
+  for (int t = 0; t < count; ++t) std::fill(out[t], out[t] + size_t(nL) * 3, 0.0f);
   const SampleGrid& g = m_maps.grid();
   const int K2 = g.spp * g.spp;
   const float invK2 = 1.0f / float(K2);
   const DVec3 wv = m_dirs[view].w;
+  const Vec3 wvf(wv);
+  const bool mapMode = m_settings.shadows == ShadowMode::Map;
+  // The samples that see a surface, texel by texel in sample order (so each texel's sums run in
+  // the same order as one texel alone).
+  thread_local std::vector<KernelSample> samples;
+  samples.clear();
+  for (int t = 0; t < count; ++t)
+    for (int s = 0; s < K2; ++s) {
+      const int64_t si = g.sampleIndex(ti[t], tj[t], s);
+      const uint32_t prim = m_maps.prim(view, si);
+      if (prim == kNoHit) continue;
+      KernelSample S;
+      const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
+      S.p = Vec3(p0 + double(m_maps.depth(view, si)) * wv);
+      if (!hitNormals(m_geom, prim, m_maps.bu(view, si), m_maps.bv(view, si), wvf, &S.ng, &S.n))
+        continue;
+      S.mat = &m_materials[m_geom.triMaterial[prim]];
+      S.lambert = S.mat->type == BrdfType::Lambert;
+      S.won = glm::dot(S.n, wvf);
+      // Every model but the Lambert shortcut is zero when the shading normal faces away.
+      if (!S.lambert && S.won <= 0) continue;
+      const bool local = !S.lambert && S.mat->type != BrdfType::BlinnPhong;
+      if (local) {
+        S.frame = Frame::fromNormal(S.n);
+        S.wo = S.frame.toLocal(wvf);
+      } else {
+        S.wo = Vec3(0, 0, S.won);
+      }
+      S.ngXY = std::sqrt(S.ng.x * S.ng.x + S.ng.y * S.ng.y);
+      S.origin = DVec3(S.p) + m_tracer.epsilon() * DVec3(S.ng);
+      S.prim = prim;
+      S.texel = t;
+      samples.push_back(S);
+    }
   int64_t evals = 0;
-  for (int s = 0; s < K2; ++s) {
-    const int64_t si = g.sampleIndex(i, j, s);
-    const uint32_t prim = m_maps.prim(view, si);
-    if (prim == kNoHit) continue;
-    const int a = int(si % g.su()), b = int(si / g.su());
-    const DVec3 p0 = g.position(a, b);
-    const Vec3 p = Vec3(p0 + double(m_maps.depth(view, si)) * wv);
-    Vec3 ng, n;
-    if (!hitNormals(m_geom, prim, m_maps.bu(view, si), m_maps.bv(view, si), Vec3(wv), &ng, &n))
-      continue;
-    const Frame frame = Frame::fromNormal(n);
-    const Vec3 wo = frame.toLocal(Vec3(wv));
-    const Material& mat = m_materials[m_geom.triMaterial[prim]];
-    const bool lambert = mat.type == BrdfType::Lambert;
-    const DVec3 origin = DVec3(p) + m_tracer.epsilon() * DVec3(ng);
-    for (int l = 0; l < nL; ++l) {
-      const LightInfo& L = m_lights[size_t(l)];
-      const float cosN = glm::dot(n, L.w);
-      if (cosN <= 0 || glm::dot(ng, L.w) <= 0) continue;
+  for (int l = 0; l < nL; ++l) {
+    const LightInfo& L = m_lights[size_t(l)];
+    const bool useMap = mapMode && !L.rays;
+    for (const KernelSample& S : samples) {
+      const float cosN = glm::dot(S.n, L.w);
+      const float cn = glm::dot(S.ng, L.w);
+      if (cosN <= 0 || cn <= 0) continue;
       float vis;
-      if (m_settings.shadows == ShadowMode::Map && !L.rays) {
-        vis = shadowMapVisibility(l, p, ng, prim);
+      if (useMap) {
+        vis = mapVisibility(l, S.p, cn, S.ngXY, S.prim);
       } else if (m_settings.shadows != ShadowMode::None) {
-        vis = m_tracer.occluded(origin, DVec3(L.w)) ? 0.0f : 1.0f;
+        vis = m_tracer.occluded(S.origin, DVec3(L.w)) ? 0.0f : 1.0f;
       } else {
         vis = 1.0f;
       }
       if (vis <= 0) continue;
       // Lambert needs no local frame: its value is constant.
-      const Rgb f = lambert ? mat.kdOverPi : evalBrdf(mat, frame.toLocal(L.w), wo);
+      const Rgb f = S.lambert ? S.mat->kdOverPi : brdf(*S.mat, S.frame, S.wo, wvf, cosN, S.won, l);
       const float k = cosN * L.invCos * vis * invK2;
-      out[3 * l] += f.x * k;
-      out[3 * l + 1] += f.y * k;
-      out[3 * l + 2] += f.z * k;
+      float* o = out[S.texel] + 3 * l;
+      o[0] += f.x * k;
+      o[1] += f.y * k;
+      o[2] += f.z * k;
       ++evals;
     }
   }
   return evals;
 }
 
-bool DirectIllumination::surface(const DVec3& planePoint, const DVec3& wv, uint32_t prim,
-                                 float bu, float bv, float depth, Surface* s) const {
+bool DirectIllumination::surface(const DVec3& planePoint, const DVec3& wv, uint32_t prim, float bu,
+                                 float bv, float depth, Surface* s) const {
   if (prim == kNoHit) return false;
   s->p = Vec3(planePoint + double(depth) * wv);
   if (!hitNormals(m_geom, prim, bu, bv, Vec3(wv), &s->ng, &s->n)) return false;
   s->frame = Frame::fromNormal(s->n);
-  s->wo = s->frame.toLocal(Vec3(wv));
+  s->wv = Vec3(wv);
+  s->wo = s->frame.toLocal(s->wv);
+  s->ngXY = std::sqrt(s->ng.x * s->ng.x + s->ng.y * s->ng.y);
   s->material = m_geom.triMaterial[prim];
   s->mat = &m_materials[s->material];
   s->lambert = s->mat->type == BrdfType::Lambert;
@@ -169,12 +235,16 @@ bool DirectIllumination::surface(const DVec3& planePoint, const DVec3& wv, uint3
 Rgb DirectIllumination::contribution(const Surface& s, int l, bool exactShadow) const {
   const LightInfo& L = m_lights[size_t(l)];
   const float cosN = glm::dot(s.n, L.w);
-  if (cosN <= 0 || glm::dot(s.ng, L.w) <= 0) return Rgb(0);
-  const float vis = exactShadow && m_settings.shadows != ShadowMode::None
-                        ? (m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f)
-                        : lightVisibility(l, s.p, s.ng, s.prim);
+  const float cn = glm::dot(s.ng, L.w);
+  if (cosN <= 0 || cn <= 0) return Rgb(0);
+  if (!s.lambert && s.wo.z <= 0) return Rgb(0);
+  float vis = 1.0f;
+  if (m_settings.shadows == ShadowMode::Map && !L.rays && !exactShadow)
+    vis = mapVisibility(l, s.p, cn, s.ngXY, s.prim);
+  else if (m_settings.shadows != ShadowMode::None)
+    vis = m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f;
   if (vis <= 0) return Rgb(0);
-  const Rgb f = s.lambert ? s.mat->kdOverPi : evalBrdf(*s.mat, s.frame.toLocal(L.w), s.wo);
+  const Rgb f = s.lambert ? s.mat->kdOverPi : brdf(*s.mat, s.frame, s.wo, s.wv, cosN, s.wo.z, l);
   return f * (cosN * L.invCos * vis);
 }
 

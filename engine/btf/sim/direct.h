@@ -33,6 +33,14 @@ class DirectIllumination {
   /// aBRDF of texel (i, j) seen from direction `view`, for every light of the set:
   /// out[l * 3 + c], l in [0, nL). Returns the number of (sample, light) BRDF evaluations made.
   int64_t evalTexelView(int i, int j, int view, float* out) const;
+  /// The same for `count` texels (ti[k], tj[k]) seen from one view, out[k] the k-th texel's row:
+  /// lights outer, samples inner, so one light's shadow-map taps for neighbouring texels share
+  /// cache lines (at 64² × 16×32 the maps are 16 MiB and each tap otherwise misses L2). Every
+  /// value is bit-identical to evalTexelView's.
+  int64_t evalTexelsView(const int* ti, const int* tj, int count, int view,
+                         float* const* out) const;
+  /// Texels per block that evalTexelsView is meant for.
+  static constexpr int kBlockTexels = 16;
   /// Same, for an arbitrary light direction (unit, above the plane) — shadow rays only when the
   /// light is not in the set, since only the set's directions have shadow maps.
   Rgb evalTexelViewLight(int i, int j, int view, const DVec3& light) const;
@@ -45,6 +53,8 @@ class DirectIllumination {
   /// A shaded point of the surface: the hit of a camera ray, ready to be lit by any light.
   struct Surface {
     Vec3 p, ng, n, wo;  // hit point, geometric and shading normals, view in the local frame
+    Vec3 wv;            // the view direction in world space
+    float ngXY = 0;     // |ng's projection on the plane|: the shadow map's slope bias
     Frame frame;
     DVec3 origin;  // p offset along ng: shadow rays start here
     const Material* mat = nullptr;
@@ -72,6 +82,15 @@ class DirectIllumination {
     float slopeX, slopeY;  // ωx/ωz, ωy/ωz: projection onto the reference plane
     bool rays;             // map mode, grazing light: exact shadow rays instead
   };
+  /// Shadow-map visibility with the per-sample and per-pair terms already known: cn = ng·ωi > 0,
+  /// ngXY = |ng_xy|.
+  float mapVisibility(int l, const Vec3& p, float cn, float ngXY, uint32_t prim) const;
+  /// f_r(ωi = light l, ωo = wv) at shading normal n, given cosN = n·ωi > 0 and won = n·ωv > 0.
+  /// Blinn-Phong in world space (n·h = cosN + won, |h|² = 2 + 2 ωi·ωv: no frame, no sqrt of h);
+  /// the other models through the local frame.
+  Rgb brdf(const Material& mat, const Frame& frame, const Vec3& wo, const Vec3& wv, float cosN,
+           float won, int l) const;
+
   const PeriodicTracer& m_tracer;
   const TileGeometry& m_geom;
   const std::vector<Material>& m_materials;

@@ -233,6 +233,35 @@ struct TexelKernel {
   int ptPaths = 1;
   std::vector<DVec3> lights;
 
+  /// Texels evaluated together per (block, view) item: the plain direct kernel lights a block
+  /// light by light (DirectIllumination::evalTexelsView); the other kernels go texel by texel.
+  int blockTexels() const { return adaptive || pathTrace ? 1 : DirectIllumination::kBlockTexels; }
+
+  /// Texels t0 … t0 + count − 1 (row-major over nu columns) seen from `view`: texel k's row of
+  /// lights at out + k · stride. Every value equals eval's.
+  int64_t evalBlock(int64_t t0, int count, int nu, int view, float* out, size_t stride) const {
+    if (count == 1 || blockTexels() == 1) {
+      int64_t n = 0;
+      for (int k = 0; k < count; ++k)
+        n += eval(int((t0 + k) % nu), int((t0 + k) / nu), view, out + size_t(k) * stride);
+      return n;
+    }
+    int ti[DirectIllumination::kBlockTexels], tj[DirectIllumination::kBlockTexels];
+    float* rows[DirectIllumination::kBlockTexels];
+    int64_t n = 0;
+    for (int b = 0; b < count; b += DirectIllumination::kBlockTexels) {
+      const int m = std::min(count - b, DirectIllumination::kBlockTexels);
+      for (int k = 0; k < m; ++k) {
+        ti[k] = int((t0 + b + k) % nu), tj[k] = int((t0 + b + k) / nu);
+        rows[k] = out + size_t(b + k) * stride;
+      }
+      n += direct.evalTexelsView(ti, tj, m, view, rows);
+      if (gather)
+        for (int k = 0; k < m; ++k) addGather(ti[k], tj[k], view, rows[k]);
+    }
+    return n;
+  }
+
   int64_t eval(int i, int j, int view, float* out) const {
     const int nL = dirs.size();
     const SampleGrid& g = maps.grid();
@@ -254,7 +283,15 @@ struct TexelKernel {
       return int64_t(K2) * ptPaths * nL;
     }
     const int64_t n = direct.evalTexelView(i, j, view, out);
-    if (gather) {
+    if (gather) addGather(i, j, view, out);
+    return n;
+  }
+
+  // The network's final gather at texel (i, j)'s samples, added to its row.
+  void addGather(int i, int j, int view, float* out) const {
+    const SampleGrid& g = maps.grid();
+    const int K2 = g.spp * g.spp;
+    {
       const DVec3 wv = dirs[view].w;
       const float invK2 = 1.0f / float(K2);
       const TileGeometry& geom = tracer.geometry();
@@ -270,7 +307,6 @@ struct TexelKernel {
         gather->add(p, ng, ns, prim, Vec3(wv), invK2, out);
       }
     }
-    return n;
   }
 };
 
@@ -665,20 +701,28 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
       const size_t stride = size_t(nD) * size_t(nD) * 3;
       std::vector<float>& chunk = buffers[cur];
       chunk.assign(size_t(t1 - t0) * stride, 0.f);
-      parallelForChunks((t1 - t0) * nD, pt ? 1 : 8,
-                        [&](int64_t b, int64_t e) {
-                          uint64_t local = 0;
-                          for (int64_t k = b; k < e; ++k) {
-                            const int64_t t = t0 + k / nD;
-                            const int view = int(k % nD);
-                            local += uint64_t(kernel.eval(
-                                int(t % m_opt.nu), int(t / m_opt.nu), view,
-                                &chunk[size_t(k / nD) * stride + size_t(view) * nD * 3]));
-                            if (view == nD - 1) pr.add(1);
-                          }
-                          evals += local;
-                        },
-                        cancel);
+      // Work items: (block of B texels, view); B > 1 only for the plain direct kernel.
+      const int B = kernel.blockTexels();
+      const int64_t blocks = (t1 - t0 + B - 1) / B;
+      parallelForChunks(
+          blocks * nD,
+          B > 1 ? 1
+          : pt  ? 1
+                : 8,
+          [&](int64_t b, int64_t e) {
+            uint64_t local = 0;
+            for (int64_t k = b; k < e; ++k) {
+              const int64_t tb = t0 + (k / nD) * B;
+              const int n = int(std::min<int64_t>(B, t1 - tb));
+              const int view = int(k % nD);
+              local += uint64_t(kernel.evalBlock(
+                  tb, n, m_opt.nu, view, &chunk[size_t(tb - t0) * stride + size_t(view) * nD * 3],
+                  stride));
+              if (view == nD - 1) pr.add(n);
+            }
+            evals += local;
+          },
+          cancel);
       if (cancel && cancel->cancelled()) {
         waitWrite();  // the chunk in flight lands in the .partial; then the one outcome
         throw Cancelled("aBRDF");
