@@ -104,6 +104,9 @@ Opts effectOptions() {
       excl(fl("tolerance", 0.01, 0, 1,
               "adaptive sampling: a value refines while its estimated error exceeds this "
               "fraction of max(value, floor)")),
+      en("tail", "auto", {"auto", "add", "drop"},
+         "inter-reflection orders past P: add them as the geometric series of the last two "
+         "orders' measured ratio (auto: when the plan chose P >= 3) or drop them"),
       en("glossy_indirect", "auto", {"auto", "on", "off"},
          "glossy lobes reflect the indirect light at the texels"),
       en("colour", "auto", {"auto", "on", "off"}, "RGB (on) or one channel for grey scenes (off)"),

@@ -104,6 +104,10 @@ SimOptions simOptions(const Scene& scene, const Request& r) {
     if (r.given("interreflection")) o.plan.interreflection = toggle(r, "interreflection");
     o.plan.colour = toggle(r, "colour");
     o.plan.glossyIndirect = toggle(r, "glossy_indirect");
+    {
+      const std::string t = r.s("tail");
+      o.plan.tail = t == "add" ? Toggle::On : t == "drop" ? Toggle::Off : Toggle::Auto;
+    }
     o.plan.vmf = toggle(r, "vmf");
     const int bounces = r.i("bounces");
     if (bounces > 0) {

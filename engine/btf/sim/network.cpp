@@ -394,8 +394,11 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
   });
 
   m_setupSeconds = since(start);
+  const bool tail = m_closedFormTail && P >= 3;
+  const int nSolved = lightLimit > 0 ? std::min(lightLimit, m_nL) : m_nL;
+  std::vector<double> tailRatio(size_t(nSolved), 0.0);
   parallelForChunks(
-      lightLimit > 0 ? std::min(lightLimit, m_nL) : m_nL, 1,
+      nSolved, 1,
       [&](int64_t lb, int64_t le) {
         std::vector<float> ehit(nLk);
         std::vector<Rgb> lin(nLk), linPrev(nLk), eOrder(nP), eTot(nP), linTot(perLink ? nLk : 0);
@@ -413,6 +416,7 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
           std::fill(eTot.begin(), eTot.end(), Rgb(0));
           std::fill(linTot.begin(), linTot.end(), Rgb(0));
           if (directional) std::fill(dsum.begin(), dsum.end(), Vec3(0));
+          DVec3 orderSum(0), prevSum(0);  // Σ over points of the last two orders, per channel
           for (int order = 1; order < P; ++order) {
             // Radiance arriving along each link: what its target sends back toward the source.
             for (size_t e = 0; e < nLk; ++e) {
@@ -451,6 +455,28 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
               eTot[k] += eOrder[k];
             }
             std::swap(lin, linPrev);
+            if (tail) {
+              prevSum = orderSum;
+              orderSum = DVec3(0);
+              for (size_t k = 0; k < nP; ++k) orderSum += DVec3(eOrder[k]);
+            }
+          }
+          if (tail) {
+            // The orders past P − 1 as a geometric series of the measured ratio: the last order
+            // (eOrder at the points, linPrev along the links) times r / (1 − r).
+            Rgb f(0);
+            double rY = 0, wY = 0;
+            for (int c = 0; c < 3; ++c) {
+              const double r =
+                  prevSum[c] > 0 ? std::clamp(orderSum[c] / prevSum[c], 0.0, 0.95) : 0.0;
+              f[c] = float(r / (1 - r));
+              const double y = c == 0 ? 0.2126 : c == 1 ? 0.7152 : 0.0722;
+              rY += y * prevSum[c] * r, wY += y * prevSum[c];
+            }
+            tailRatio[size_t(l)] = wY > 0 ? rY / wY : 0.0;
+            for (size_t k = 0; k < nP; ++k) eTot[k] += eOrder[k] * f;
+            if (perLink)
+              for (size_t e = 0; e < nLk; ++e) linTot[e] += linPrev[e] * f;
           }
           if (perLink)
             for (size_t e = 0; e < nLk; ++e) {
@@ -475,6 +501,8 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
       },
       cancel);
   throwIfCancelled(cancel, "network light");
+  m_meanTailRatio = 0;
+  for (double r : tailRatio) m_meanTailRatio += r / double(std::max(1, nSolved));
   m_seconds = since(start);
 }
 

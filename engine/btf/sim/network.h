@@ -119,6 +119,14 @@ class NetworkLighting {
              const LightVisibility& visibility, int bounces, GlossyGather glossy,
              ProgressReporter* progress = nullptr, const CancelToken* cancel = nullptr,
              int lightLimit = -1);
+  /// Before solve: add the orders past P − 1 in closed form. With the last two computed orders'
+  /// totals over the network E_{P−2}, E_{P−1} (per light and channel), the ratio
+  /// r = ΣE_{P−1} / ΣE_{P−2} (clamped to [0, 0.95]) continues the series: every point and link
+  /// gains its last order × r / (1 − r) — the higher orders take the shape of the last one (the
+  /// transport's dominant mode). Needs P ≥ 3; ignored otherwise.
+  void setClosedFormTail(bool on) { m_closedFormTail = on; }
+  /// Mean over lights of the luminance-weighted ratio r the closed form used (0 when unused).
+  double meanTailRatio() const { return m_meanTailRatio; }
   int lights() const { return m_nL; }
   /// nL × 3 floats of point k: indirect irradiance / cos θi, per light and channel.
   const float* irradiance(uint32_t k) const { return &m_E[size_t(k) * size_t(m_nL) * 3]; }
@@ -142,6 +150,8 @@ class NetworkLighting {
   std::vector<float> m_E, m_D, m_Lin;
   GlossyGather m_glossy = GlossyGather::None;
   double m_seconds = 0, m_setupSeconds = 0;
+  bool m_closedFormTail = false;
+  double m_meanTailRatio = 0;
 };
 
 /// The final gather of the indirect term for the direct hits of a view.

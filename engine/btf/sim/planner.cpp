@@ -217,6 +217,42 @@ EffectPlan planEffects(const PeriodicTracer& tracer, const std::vector<Material>
     plan.decisions.push_back(d);
   }
   {
+    // The orders past P: the bound q^P/(1 − q) (relative to the direct reflection) is what
+    // dropping them would risk — and q = ρ_max·ᾱ is no bound in a deep cavity, where the light
+    // stays where α is high (albedo-1 cavity: the plan's P = 8 was 4.4 % short of P = 30). With
+    // two indirect orders the network measures their ratio and adds the rest as a geometric
+    // series (the same cavity: 0.03 %), so that is the default whenever the plan chose P ≥ 3.
+    // A forced P keeps its meaning (exactly P reflections, as the path tracer's --bounces).
+    EffectDecision d{"tail", "", "", req.tail != Toggle::Auto, 0};
+    const int K = plan.bounces - 1;  // indirect orders computed
+    const double bound = !plan.interreflection ? 0
+                         : q < 1               ? std::pow(q, K + 1) / (1 - q)
+                                               : std::numeric_limits<double>::infinity();
+    if (plan.interreflection) plan.droppedTail = bound;
+    const std::string b = "the orders past P = " + std::to_string(plan.bounces) +
+                          " are bounded by " + fmt(100 * bound) + " % of the direct reflection";
+    if (!plan.interreflection) {
+      plan.closedFormTail = false;
+      d.reason = "no inter-reflection";
+    } else if (K < 2) {
+      plan.closedFormTail = false;
+      d.reason = b + "; a closed form needs two indirect orders (P ≥ 3) to measure their ratio";
+    } else if (req.tail == Toggle::Auto && req.bounces > 0) {
+      plan.closedFormTail = false;
+      d.reason = b + "; dropped: P was forced (--tail add adds them)";
+    } else if (req.tail == Toggle::Auto) {
+      plan.closedFormTail = true;
+      d.reason = b +
+                 "; added as the geometric series of the ratio of the last two orders, "
+                 "measured per light and channel";
+    } else {
+      plan.closedFormTail = req.tail == Toggle::On;
+      d.reason = b + "; forced by the command line";
+    }
+    d.value = plan.closedFormTail ? "added" : "dropped";
+    plan.decisions.push_back(d);
+  }
+  {
     // Glossy lobes reflecting the indirect light at the texels: their share of the value is at
     // most (glossy albedo) × (ρ_max·ᾱ), the indirect light relative to the direct.
     for (const Material& m : materials) {

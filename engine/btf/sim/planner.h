@@ -27,10 +27,12 @@ struct PlanRequest {
   Toggle colour = Toggle::Auto;  // On = RGB, Off = one channel
   Toggle vmf = Toggle::Auto;
   Toggle glossyIndirect = Toggle::Auto;  // glossy lobes reflecting indirect light at the texels
+  /// The orders past P: added in closed form (On; Auto when the plan chose P ≥ 3) or dropped.
+  Toggle tail = Toggle::Auto;
 };
 
 struct EffectDecision {
-  std::string effect;  // self_shadowing, interreflection, bounces, glossy_indirect, channels, vmf
+  std::string effect;  // self_shadowing, interreflection, bounces, tail, glossy_indirect, …
   std::string value;   // on/off, a number
   std::string reason;
   bool forced = false;
@@ -49,6 +51,9 @@ struct EffectPlan {
   double rhoMax = 0, alphaMax = 0, alphaMean = 0;
   double energyBound = 0;  // ρ_max·ᾱ: the decay of the inter-reflection orders
   double droppedTail = 0;  // Σ of the orders P leaves out, relative to the direct reflection
+  /// The orders past P are added as a geometric series whose ratio is measured per light and
+  /// channel from the last two computed orders (NetworkLighting::setClosedFormTail).
+  bool closedFormTail = false;
   int64_t occlusionTests = 0, occludedTests = 0;
   std::vector<EffectDecision> decisions;
   EffectDecision* find(const std::string& effect);

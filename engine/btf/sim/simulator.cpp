@@ -588,6 +588,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
                             {mode, m_opt.shadowBias, m_opt.grazingRays});
   NetworkLighting lighting;
+  lighting.setClosedFormTail(pl.closedFormTail);
   std::unique_ptr<NetworkGather> gather;
   const auto renderStart = Clock::now();
   if (gi) {
@@ -836,6 +837,7 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
   DirectIllumination direct(*m_tracer, m_materials, pair, maps,
                             {mode, m_opt.shadowBias, m_opt.grazingRays});
   NetworkLighting lighting;
+  lighting.setClosedFormTail(pl && pl->closedFormTail);
   std::unique_ptr<NetworkGather> gather;
   if (gi) {
     const GlossyGather glossy = glossyGather();

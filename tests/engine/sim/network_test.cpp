@@ -464,6 +464,33 @@ TEST(Planner, BounceCountFromTheEnergyBound) {
                              " for time") != std::string::npos &&
                d.reason.find("estimated relative error") != std::string::npos;
   EXPECT_TRUE(stated);
+  // The orders past P are added in closed form (the ratio of the last two orders continued as a
+  // geometric series): against P = 30, the capped plan and the planner's own P are both far
+  // closer than with the orders dropped — the bound q^P/(1 − q) underestimates a deep cavity.
+  EXPECT_TRUE(b.plan.closedFormTail);
+  EXPECT_TRUE(deep.plan.closedFormTail);
+  const SimRun converged = simulate(c, opts(16, "bonn81", 1, 30));  // forced: no tail
+  o.plan.tail = Toggle::Off;
+  const SimRun dropped = simulate(c, o);
+  EXPECT_FALSE(dropped.plan.closedFormTail);
+  const double eTail = relDiff(b, converged), eDrop = relDiff(dropped, converged);
+  const double eDeep = relDiff(deep, converged);
+  std::printf(
+      "  albedo-1 cavity vs P = 30: P = 4 %.2f %% dropping the tail, %.3f %% adding it; "
+      "plan's P = %d adding it %.3f %%\n",
+      100 * eDrop, 100 * eTail, deep.plan.bounces, 100 * eDeep);
+  EXPECT_GT(eDrop, 10 * o.plan.epsilon);
+  EXPECT_LT(eTail, o.plan.epsilon);
+  EXPECT_LT(eDeep, 0.1 * o.plan.epsilon);
+  // Forced on below P = 3 there are not two orders to measure: the decision says so.
+  o.plan.tail = Toggle::On;
+  o.plan.bounces = 2;
+  const SimRun two = simulate(c, o);
+  EXPECT_FALSE(two.plan.closedFormTail);
+  bool why = false;
+  for (const auto& d : two.plan.decisions)
+    if (d.effect == "tail") why = d.reason.find("P ≥ 3") != std::string::npos;
+  EXPECT_TRUE(why);
 }
 
 TEST(Planner, WeakGlossyLobesSkipTheIndirectGlossyGather) {
