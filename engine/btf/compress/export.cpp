@@ -7,6 +7,7 @@
 #include <btf/core/run_context.h>
 #include <btf/directions/direction_set.h>
 #include <btf/io/image_io.h>
+#include <zip.h>
 
 #include <algorithm>
 #include <cmath>
@@ -60,10 +61,66 @@ static std::string fmtDeg(double d) {
   return b;
 }
 
-int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
-                      const CancelToken* cancel) {
+namespace {
+
+// Every file under `root` (relative names, '/'-separated, sorted) added to a new zip archive
+// `zipPath`, stored (the images are compressed already; EXR half/float barely deflates).
+void zipFolder(const std::string& root, const std::string& zipPath) {
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(root))
+    if (e.is_regular_file())
+      names.push_back(std::filesystem::relative(e.path(), root).generic_string());
+  std::sort(names.begin(), names.end());
+  int err = 0;
+  zip_t* z = zip_open(zipPath.c_str(), ZIP_CREATE | ZIP_TRUNCATE, &err);
+  if (!z) {
+    zip_error_t ze;
+    zip_error_init_with_code(&ze, err);
+    const std::string why = zip_error_strerror(&ze);
+    zip_error_fini(&ze);
+    throw Error(zipPath + ": cannot create the zip archive (" + why + ")");
+  }
+  auto fail = [&](const std::string& what) {
+    const std::string why = zip_strerror(z);
+    zip_discard(z);
+    throw Error(zipPath + ": " + what + " (" + why + ")");
+  };
+  for (const std::string& n : names) {
+    zip_source_t* src = zip_source_file(z, (root + "/" + n).c_str(), 0, -1);
+    if (!src) fail("cannot read " + n);
+    const zip_int64_t idx = zip_file_add(z, n.c_str(), src, ZIP_FL_ENC_UTF_8);
+    if (idx < 0) {
+      zip_source_free(src);
+      fail("cannot add " + n);
+    }
+    if (zip_set_file_compression(z, zip_uint64_t(idx), ZIP_CM_STORE, 0) != 0)
+      fail("cannot store " + n);
+  }
+  if (zip_close(z) != 0) fail("cannot write the archive");
+}
+
+// Removes a folder when it goes out of scope (the staging folder of a zip export).
+struct FolderGuard {
+  std::string path;
+  ~FolderGuard() {
+    std::error_code ec;
+    if (!path.empty()) std::filesystem::remove_all(path, ec);
+  }
+};
+
+}  // namespace
+
+Ubo2003Report exportUbo2003(const Decoder& d, const std::string& out, bool progress,
+                            const CancelToken* cancel, const Ubo2003Options& o) {
   const BtfInfo& info = d.info();
   const int n = info.nDirs();
+  if (o.imageFormat != "exr" && o.imageFormat != "png" && o.imageFormat != "jpg")
+    throw Error("export ubo2003: unknown image format '" + o.imageFormat +
+                "' (expected exr, png or jpg)");
+  if (!(o.scale >= 0) || !std::isfinite(o.scale))
+    throw Error("export ubo2003: --scale must be a finite number ≥ 0 (0 = 1 / peak)");
+  const bool hdr = o.imageFormat == "exr";
+  const std::string ext = "." + o.imageFormat;
   // Names must be unique after rounding to integer degrees.
   std::map<std::string, int> seen;
   std::vector<std::string> blocksL, blocksV;
@@ -78,17 +135,40 @@ int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
     blocksL.push_back(b);
     blocksV.push_back(angleBlock("tv", "pv", a[0], a[1]));
   }
+  // A zip is staged in a folder beside it, then archived into OUT.partial and renamed.
+  FolderGuard staging;
+  std::string dir = out;
+  if (o.zip) {
+    dir = out + ".images.partial.d";
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+    staging.path = dir;
+  }
   makeFolder(dir);
   const int64_t T = info.texels();
   const size_t lv = size_t(n) * n;
+  std::vector<float> texel(lv * 3);
+  Ubo2003Report rep;
+  // 8-bit images: one scale for the whole set (peak → 1 unless given), stated in the sidecar.
+  if (!hdr) {
+    double peak = 0;
+    if (o.scale <= 0) {
+      for (int64_t t = 0; t < T; ++t) {
+        d.texel(t, texel.data());
+        for (float v : texel)
+          if (std::isfinite(v)) peak = std::max(peak, double(v));
+        throwIfCancelled(cancel, "export ubo2003");
+      }
+    }
+    rep.scale = o.scale > 0 ? o.scale : peak > 0 ? 1.0 / peak : 1.0;
+  }
   // Views in blocks so the decoded slab stays under ~512 MiB.
   const int64_t perView = T * n * 3 * 4;
   const int vb =
       int(std::clamp<int64_t>((int64_t(512) << 20) / std::max<int64_t>(1, perView), 1, n));
-  std::vector<float> texel(lv * 3);
   std::vector<float> slab(size_t(T) * size_t(vb) * n * 3);
   ProgressReporter pr("export ubo2003", int64_t(n) * n, progress);
-  int64_t images = 0;
+  uint64_t clipped = 0, values = 0;
   for (int v0 = 0; v0 < n; v0 += vb) {
     const int v1 = std::min(n, v0 + vb);
     for (int64_t t = 0; t < T; ++t) {
@@ -109,26 +189,40 @@ int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
             img[size_t(t) * 3 + size_t(c)] =
                 slab[((size_t(v - v0) * size_t(T) + size_t(t)) * size_t(n) + size_t(l)) * 3 +
                      size_t(c)];
-        const std::string name = blocksL[size_t(l)] + "_" + blocksV[size_t(v)] + ".exr";
+        if (!hdr)
+          for (float x : img) clipped += double(x) * rep.scale > 1.0, ++values;
+        const std::string name = blocksL[size_t(l)] + "_" + blocksV[size_t(v)] + ext;
         const auto& dv = info.dirsDeg[size_t(v)];
         const auto& dl = info.dirsDeg[size_t(l)];
-        writeRgbImage(sub + "/" + name, info.nu, info.nv, img, 1.0f, true,
+        writeRgbImage(sub + "/" + name, info.nu, info.nv, img, float(rep.scale), true,
                       {{"units", "aBRDF, 1/sr, linear RGB"},
                        {"view_theta_phi_deg", fmtDeg(dv[0]) + "," + fmtDeg(dv[1])},
                        {"light_theta_phi_deg", fmtDeg(dl[0]) + "," + fmtDeg(dl[1])},
                        {"scene", info.sceneName},
                        {"scene_hash", info.sceneHash}});
-        ++images;
+        ++rep.images;
         pr.add(1);
       }
     }
   }
   pr.finish();
+  rep.clipped = values ? double(clipped) / double(values) : 0.0;
   nlohmann::ordered_json j;
-  j["format"] = "ubo2003-style image set (UTIA naming), one linear float EXR per (light, view)";
-  j["values"] =
-      "aBRDF in 1/sr (Lo / (E_perp cos theta_l)); NOT multiplied by cos theta_l; linear RGB";
-  j["names"] = "tvTTT_pvPPP/tlTTT_plPPP_tvTTT_pvPPP.exr, integer degrees (rounded)";
+  if (hdr) {
+    j["format"] = "ubo2003-style image set (UTIA naming), one linear float EXR per (light, view)";
+    j["values"] =
+        "aBRDF in 1/sr (Lo / (E_perp cos theta_l)); NOT multiplied by cos theta_l; linear RGB";
+  } else {
+    j["format"] = "ubo2003-style image set (UTIA naming), one 8-bit sRGB " +
+                  std::string(o.imageFormat == "png" ? "PNG" : "JPEG (quality 95)") +
+                  " per (light, view)";
+    j["values"] =
+        "pixel/255 = srgb_encode(clamp(aBRDF * scale, 0, 1)); aBRDF in 1/sr, NOT multiplied by "
+        "cos theta_l; linear aBRDF = srgb_decode(pixel/255) / scale";
+    j["scale"] = rep.scale;
+    j["clipped_fraction"] = rep.clipped;
+  }
+  j["names"] = "tvTTT_pvPPP/tlTTT_plPPP_tvTTT_pvPPP" + ext + ", integer degrees (rounded)";
   j["image_rows"] = "top row = texel row v = Nv-1 (y up); column = texel u";
   j["texels"] = {info.nu, info.nv};
   j["tile_size"] = {info.Lx, info.Ly};
@@ -137,7 +231,15 @@ int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
   j["scene"] = info.sceneName;
   j["source"] = d.kind();
   writeFileAtomic(dir + "/btf_export.json", j.dump(1) + "\n");
-  return images;
+  if (o.zip) {
+    throwIfCancelled(cancel, "export ubo2003");
+    const std::string partial = out + ".partial";
+    zipFolder(dir, partial);
+    std::error_code ec;
+    std::filesystem::rename(partial, out, ec);
+    if (ec) throw Error(out + ": cannot rename into place (" + ec.message() + ")");
+  }
+  return rep;
 }
 
 Ubo2014Report exportUbo2014(const Decoder& d, const std::string& file, int components,

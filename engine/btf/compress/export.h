@@ -9,11 +9,22 @@
 
 namespace btf {
 
-/// One linear float EXR per (light, view) pair, in one folder per view:
-/// DIR/tvTTT_pvPPP/tlTTT_plPPP_tvTTT_pvPPP.exr (integer degrees), plus DIR/btf_export.json saying
-/// what the values are. Returns the number of images.
-int64_t exportUbo2003(const Decoder& d, const std::string& dir, bool progress,
-                      const CancelToken* cancel = nullptr);
+struct Ubo2003Options {
+  std::string imageFormat = "exr";  // exr (linear float), png or jpg (8-bit sRGB)
+  bool zip = false;                 // one .zip file instead of a folder (what PyPI readers open)
+  double scale = 0;                 // png/jpg: aBRDF × scale → [0, 1] before sRGB (0 = 1 / peak)
+};
+struct Ubo2003Report {
+  int64_t images = 0;
+  double scale = 1;    // png/jpg: the scale used (stated in btf_export.json)
+  double clipped = 0;  // png/jpg: fraction of values above 1 after scaling (clamped)
+};
+/// One image per (light, view) pair, in one folder per view:
+/// OUT/tvTTT_pvPPP/tlTTT_plPPP_tvTTT_pvPPP.EXT (integer degrees), plus OUT/btf_export.json saying
+/// what the values are. With `zip`, the same entries in one archive OUT (written as OUT.partial,
+/// then renamed; images stored, not deflated).
+Ubo2003Report exportUbo2003(const Decoder& d, const std::string& out, bool progress,
+                            const CancelToken* cancel = nullptr, const Ubo2003Options& o = {});
 
 struct Ubo2014Report {
   int components[3] = {0, 0, 0};

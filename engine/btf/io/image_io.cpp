@@ -32,9 +32,9 @@ void writeRgbaImage(const std::string& path, int w, int h, const std::vector<flo
   BTF_CHECK(!alpha || alpha->size() == size_t(w) * h);
   std::string ext = std::filesystem::path(path).extension().string();
   for (auto& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  if (ext != ".exr" && ext != ".png")
+  if (ext != ".exr" && ext != ".png" && ext != ".jpg" && ext != ".jpeg")
     throw Error(path + ": unsupported image type '" + ext +
-                "' (expected .exr, linear float, or .png, sRGB)");
+                "' (expected .exr, linear float, or .png / .jpg, sRGB)");
   const bool hdr = ext == ".exr";
   const int nc = hdr && alpha ? 4 : 3;  // PNG: the colour over black, no alpha
   // Images are stored bottom row first in memory (v up); files are top row first.
@@ -66,6 +66,10 @@ void writeRgbaImage(const std::string& path, int w, int h, const std::vector<flo
     for (const auto& [k, v] : metadata) spec.attribute("btf:" + k, v);
   } else {
     spec.attribute("oiio:ColorSpace", "sRGB");  // the PNG writer adds the sRGB chunk
+    if (ext != ".png") {
+      spec.attribute("compression", "jpeg:95");
+      spec.attribute("jpeg:subsampling", "4:4:4");  // no chroma subsampling: texels are small
+    }
   }
   if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, px.data()) || !out->close())
     throw Error(path + ": cannot write image (" + out->geterror() + ")");

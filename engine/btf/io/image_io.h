@@ -1,5 +1,5 @@
 // Image output through OpenImageIO. EXR keeps linear float values; PNG is tone mapped:
-// display = clamp(value · scale), then the sRGB transfer curve, 8 bits (docs/cli.md).
+// display = clamp(value · scale), then the sRGB transfer curve, 8 bits (docs/cli.md); JPEG too.
 #pragma once
 #include <string>
 #include <utility>
@@ -12,8 +12,9 @@ using ImageMetadata = std::vector<std::pair<std::string, std::string>>;
 
 /// Writes an RGB float image (row 0 = first row in memory is written as the image's top row
 /// when flipY is false), atomically. The format follows the extension: .exr (linear float, with
-/// `metadata` as string attributes) or .png (8 bits, sRGB curve, an sRGB chunk); anything else
-/// is refused with the path. `scale` multiplies values for PNG only. Non-finite values → 0.
+/// `metadata` as string attributes), .png (8 bits, sRGB curve, an sRGB chunk) or .jpg (8 bits,
+/// sRGB, quality 95); anything else is refused with the path. `scale` multiplies values for
+/// PNG/JPEG only. Non-finite values → 0.
 void writeRgbImage(const std::string& path, int width, int height, const std::vector<float>& rgb,
                    float scale = 1.0f, bool flipY = true, const ImageMetadata& metadata = {});
 /// Same with a coverage (alpha) channel: EXR only (RGBA); PNG ignores it.

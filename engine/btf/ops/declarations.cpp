@@ -209,11 +209,16 @@ std::vector<CommandDecl> build() {
     c.options = {
         path("input", "BTF (.btf or .cbtf)"),
         en("format", "ubo2014", {"ubo2003", "ubo2014", "merl"}, "export format"),
-        path("output", "folder (ubo2003) or file"),
+        path("output", "folder (ubo2003), .zip (ubo2003 --zip) or file"),
         in("components", 0, 0, 4096, "ubo2014: components per channel (0 = from --target-rmse)"),
         fl("target_rmse", 0.01, 1e-4, 0.5,
            "ubo2014: relative RMSE the export may add to its input"),
         in("phi_samples", 16, 1, 1024, "merl: half-vector azimuths averaged per bin"),
+        en("image_format", "exr", {"exr", "png", "jpg"},
+           "ubo2003: linear float EXR, or 8-bit sRGB PNG / JPEG (scaled by --scale)"),
+        flag("zip", "ubo2003: one .zip archive instead of a folder (what btf-extractor opens)"),
+        fl("scale", 0, 0, 1e12,
+           "ubo2003 png/jpg: aBRDF × scale maps to [0, 1] before sRGB (0 = 1 / the peak value)"),
         levelOption(),
         str("memory_budget", "8G", "memory budget of built levels")};
     c.options[1].required = true;

@@ -240,10 +240,23 @@ void exportBtf(const Call& c) {
   j["level"] = r.i("level");
   c.rep.outputs.push_back(out);
   if (fmt == "ubo2003") {
-    const int64_t n = exportUbo2003(*d, out, c.progress(), c.ctx.cancel);
-    j["images"] = n;
-    c.rep.text =
-        format("wrote %lld images and btf_export.json under %s\n", (long long)n, out.c_str());
+    Ubo2003Options o;
+    o.imageFormat = r.s("image_format");
+    o.zip = r.b("zip");
+    o.scale = r.f("scale");
+    const Ubo2003Report e = exportUbo2003(*d, out, c.progress(), c.ctx.cancel, o);
+    j["images"] = e.images;
+    j["image_format"] = o.imageFormat;
+    j["zip"] = o.zip;
+    if (o.imageFormat != "exr") {
+      j["scale"] = e.scale;
+      j["clipped_fraction"] = e.clipped;
+    }
+    c.rep.text = format("wrote %lld %s images and btf_export.json %s %s\n", (long long)e.images,
+                        o.imageFormat.c_str(), o.zip ? "into" : "under", out.c_str());
+    if (o.imageFormat != "exr")
+      c.rep.text += format("8-bit sRGB of aBRDF × %.6g (%s); %.3f %% of the values clipped at 1\n",
+                           e.scale, r.f("scale") > 0 ? "--scale" : "1 / peak", 100 * e.clipped);
   } else if (fmt == "ubo2014") {
     const double target = r.f("target_rmse");
     const Ubo2014Report e =

@@ -189,8 +189,8 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
   const std::string out = r.has("output") ? r.s("output") : std::string();
   const bool outExisted = !out.empty() && fs::exists(out);
   // Outputs are checked and locked before any work: one writer per output.
-  const bool folderOut =
-      r.command() == "study" || (r.command() == "export" && r.s("format") == "ubo2003");
+  const bool folderOut = r.command() == "study" ||
+                         (r.command() == "export" && r.s("format") == "ubo2003" && !r.b("zip"));
   std::unique_ptr<OutputLock> lock;
   collectively(ctx.processes(), [&] {
     if (!out.empty()) {

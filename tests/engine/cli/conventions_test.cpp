@@ -125,6 +125,8 @@ TEST(CliConventions, EveryCommandTakesQuietAndJsonAndMatchesItsSchema) {
       {"export", "export " + d + "/b.cbtf --format merl -o " + d + "/b.merl --phi-samples 2"},
       {"export", "export " + d + "/b.btf --format ubo2014 -o " + d + "/b.dfmf --components 2"},
       {"export", "export " + d + "/t.cbtf --format ubo2014 -o " + d + "/t.dfmf"},
+      {"export",
+       "export " + d + "/b.btf --format ubo2003 --image-format jpg --zip -o " + d + "/b_jpg.zip"},
       {"slice", "slice " + d + "/b.cbtf --view 0,0 --light 30,0 -o " + d + "/v.png"},
       {"slice", "slice " + d + "/b.btf --texel avg --light 30,0 -o " + d + "/h.exr --size 16"},
       {"render", "render " + d + "/b.btf -o " + d + "/r.png --mode all --size 16 --spp 1"},
@@ -170,6 +172,8 @@ TEST(CliConventions, ArgumentErrorsAreOneLineWithTheOptionAndItsRange) {
       {"compress x.btf -o y.cbtf --codec zip",
        "--codec: must be one of nmf, svd, perview, lpca, tensor"},
       {"export x.btf -o y --format obj", "--format: must be one of ubo2003, ubo2014, merl"},
+      {"export x.btf -o y --format ubo2003 --image-format tiff",
+       "--image-format: must be one of exr, png, jpg"},
       {"simulate " + brick, "--output is required"},
       {"slice x.btf -o x.tif --light 1,2 --view 0,0", "x.btf"},
   };

@@ -48,6 +48,51 @@ float fromHalf(uint16_t h) {
   return sign * std::ldexp(float(m + 1024), e - 25);
 }
 
+// The entries of a zip archive whose members are stored (method 0), read from the central
+// directory as APPNOTE.TXT lays it out: name → bytes. Fails on anything else (deflate, ZIP64).
+std::map<std::string, std::string> readStoredZip(const std::string& path) {
+  std::map<std::string, std::string> out;
+  Bytes z{readFile(path)};
+  size_t eocd = std::string::npos;
+  for (size_t k = z.s.size() >= 22 ? z.s.size() - 22 : 0;; --k) {
+    if (std::memcmp(z.s.data() + k, "PK\x05\x06", 4) == 0) {
+      eocd = k;
+      break;
+    }
+    if (k == 0) break;
+  }
+  EXPECT_NE(eocd, std::string::npos) << path << ": no end of central directory";
+  if (eocd == std::string::npos) return out;
+  z.pos = eocd + 10;
+  const uint16_t entries = z.get<uint16_t>();
+  z.get<uint32_t>();  // central directory size
+  z.pos = z.get<uint32_t>();
+  for (int e = 0; e < entries; ++e) {
+    EXPECT_EQ(z.get<uint32_t>(), 0x02014b50u);
+    z.pos += 6;
+    const uint16_t method = z.get<uint16_t>();
+    z.pos += 8;
+    const uint32_t csize = z.get<uint32_t>(), usize = z.get<uint32_t>();
+    const uint16_t nlen = z.get<uint16_t>(), xlen = z.get<uint16_t>(), clen = z.get<uint16_t>();
+    z.pos += 8;
+    const uint32_t local = z.get<uint32_t>();
+    const std::string name = z.str(nlen);
+    z.pos += size_t(xlen) + clen;
+    EXPECT_EQ(method, 0) << name;
+    EXPECT_EQ(csize, usize) << name;
+    Bytes l{z.s, local};
+    EXPECT_EQ(l.get<uint32_t>(), 0x04034b50u) << name;
+    l.pos = local + 26;
+    const uint16_t ln = l.get<uint16_t>(), lx = l.get<uint16_t>();
+    out[name] = z.s.substr(local + 30 + ln + lx, csize);
+  }
+  return out;
+}
+
+float srgbDecode(float p) {
+  return p <= 0.04045f ? p / 12.92f : std::pow((p + 0.055f) / 1.055f, 2.4f);
+}
+
 }  // namespace
 
 TEST(Export, Ubo2003ImageSetReadBackByNames) {
@@ -55,7 +100,7 @@ TEST(Export, Ubo2003ImageSetReadBackByNames) {
   const BtfInfo info = syntheticInfo(3, 2, "bonn81");
   const auto raw = openBtf(writeRaw((dir / "a.btf").string(), info, syntheticValues(info, {4})));
   const std::string out = (dir / "set").string();
-  EXPECT_EQ(exportUbo2003(*raw, out, false), 81 * 81);
+  EXPECT_EQ(exportUbo2003(*raw, out, false).images, 81 * 81);
   // Reader: every .exr under the folder; the angle block ends the name.
   const std::regex re("tl(\\d{3})[ _]pl(\\d{3})[ _]tv(\\d{3})[ _]pv(\\d{3})\\.exr$");
   auto indexOf = [&](int th, int ph) {
@@ -343,4 +388,109 @@ TEST(Export, MerlSymmetrisesANonReciprocalSourceAndMeasuresIt) {
               float(0.2 + 0.5 * ds[l].w.z * ds[v].w.z);
   const auto sym = openBtf(writeRaw((dir / "s.btf").string(), info, values));
   EXPECT_LT(exportMerl(*sym, (dir / "s.binary").string(), 16, false).asymmetry, 1e-6);
+}
+
+TEST(Export, Ubo2003JpegZipAndPngAsThePyPIReadersTakeThem) {
+  // btf-extractor's Ubo2003 reads a zip of JPEGs and takes the angles from the last 27
+  // characters of each entry's name: "tlTTT?plPPP?tvTTT?pvPPP.jpg", at fixed positions.
+  const auto dir = tempDir("export_ubo2003_zip");
+  const BtfInfo info = syntheticInfo(4, 3, "bonn81");
+  const auto raw = openBtf(writeRaw((dir / "a.btf").string(), info, syntheticValues(info, {4})));
+  float peak = 0;
+  {
+    std::vector<float> t(size_t(info.nDirs()) * info.nDirs() * 3);
+    for (int64_t k = 0; k < info.texels(); ++k) {
+      raw->texel(k, t.data());
+      for (float v : t) peak = std::max(peak, v);
+    }
+  }
+  ASSERT_GT(peak, 0);
+  auto indexOf = [&](int th, int ph) {
+    for (int i = 0; i < info.nDirs(); ++i)
+      if (std::lround(info.dirsDeg[size_t(i)][0]) == th &&
+          std::lround(info.dirsDeg[size_t(i)][1]) % 360 == ph)
+        return i;
+    return -1;
+  };
+  for (const char* fmt : {"jpg", "png"}) {
+    SCOPED_TRACE(fmt);
+    Ubo2003Options o;
+    o.imageFormat = fmt;
+    o.zip = true;
+    const std::string zipPath = (dir / (std::string(fmt) + ".zip")).string();
+    const Ubo2003Report rep = exportUbo2003(*raw, zipPath, false, nullptr, o);
+    EXPECT_EQ(rep.images, 81 * 81);
+    EXPECT_NEAR(rep.scale, 1.0 / peak, 1e-6 / peak);
+    EXPECT_EQ(rep.clipped, 0.0);
+    EXPECT_FALSE(std::filesystem::exists(zipPath + ".partial"));
+    EXPECT_FALSE(std::filesystem::exists(zipPath + ".images.partial.d"));
+    const auto entries = readStoredZip(zipPath);
+    ASSERT_EQ(entries.size(), size_t(81 * 81 + 1));
+    ASSERT_TRUE(entries.count("btf_export.json"));
+    const std::string side = entries.at("btf_export.json");
+    EXPECT_NE(side.find("srgb_decode(pixel/255) / scale"), std::string::npos);
+    EXPECT_NE(side.find("\"scale\""), std::string::npos);
+    const std::string ext = std::string(".") + fmt;
+    int images = 0, checked = 0;
+    double worst = 0, sum2 = 0;
+    int64_t count = 0;
+    for (const auto& [name, bytes] : entries) {
+      if (name.size() < 27 || name.substr(name.size() - 4) != ext) continue;
+      ++images;
+      const std::string b = name.substr(name.size() - 27);
+      ASSERT_EQ(b.substr(0, 2), "tl") << name;
+      ASSERT_EQ(b.substr(6, 2), "pl") << name;
+      ASSERT_EQ(b.substr(12, 2), "tv") << name;
+      ASSERT_EQ(b.substr(18, 2), "pv") << name;
+      const int l = indexOf(std::stoi(b.substr(2, 3)), std::stoi(b.substr(8, 3)));
+      const int v = indexOf(std::stoi(b.substr(14, 3)), std::stoi(b.substr(20, 3)));
+      ASSERT_GE(l, 0) << name;
+      ASSERT_GE(v, 0) << name;
+      if ((l * 7 + v) % 61 != 0) continue;
+      const std::string tmp = (dir / ("one" + ext)).string();
+      {
+        std::ofstream f(tmp, std::ios::binary);
+        f.write(bytes.data(), std::streamsize(bytes.size()));
+      }
+      int w = 0, h = 0;
+      const auto img = readRgbImage(tmp, &w, &h);
+      ASSERT_EQ(w, info.nu);
+      ASSERT_EQ(h, info.nv);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          const auto val = raw->value(x + info.nu * (info.nv - 1 - y), v, l);  // top row = Nv − 1
+          for (int c = 0; c < 3; ++c) {
+            const float lin =
+                srgbDecode(img[(size_t(y) * w + x) * 3 + size_t(c)]) / float(rep.scale);
+            const double e = double(std::abs(lin - val[size_t(c)])) / peak;
+            worst = std::max(worst, e);
+            sum2 += e * e, ++count;
+          }
+        }
+      ++checked;
+    }
+    EXPECT_EQ(images, 81 * 81);
+    EXPECT_GT(checked, 80);
+    // 8 bits of sRGB: ≤ 1/255 of the peak at worst near black (PNG). JPEG (quality 95, 4:4:4)
+    // adds its loss — largest on these noise-like 4×3 images, whose every texel differs.
+    const double rms = std::sqrt(sum2 / double(std::max<int64_t>(1, count)));
+    std::printf("  %s in a zip: |value − read back| / peak: worst %.4f, RMS %.4f\n", fmt, worst,
+                rms);
+    if (std::string(fmt) == "png") {
+      EXPECT_LT(worst, 0.004);
+    } else {
+      EXPECT_LT(worst, 0.1);
+      EXPECT_LT(rms, 0.02);
+    }
+  }
+  // Bad options are clear errors, and nothing is left behind.
+  Ubo2003Options bad;
+  bad.imageFormat = "tiff";
+  try {
+    exportUbo2003(*raw, (dir / "bad.zip").string(), false, nullptr, bad);
+    FAIL() << "tiff accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown image format 'tiff'"), std::string::npos);
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad.zip"));
 }
