@@ -180,6 +180,10 @@ TEST(Cluster, StudyAndCompareGiveTheFiguresOfOneProcess) {
       EXPECT_DOUBLE_EQ(x[k].get<double>(), y[k].get<double>()) << i << " " << k;
   }
   EXPECT_TRUE(fs::exists(dir / "s3" / "study.csv"));
+  // The path-traced references (traced in shares over the three ranks, then allgathered) and
+  // every probe value: the same bytes as one process.
+  EXPECT_EQ(readFile((dir / "s1" / "probes.csv").string()),
+            readFile((dir / "s3" / "probes.csv").string()));
   // compare: the spp-1 and adaptive simulations, on 1 and 3 ranks.
   const std::string p = (dir / "p.btf").string(), q = (dir / "q.btf").string();
   ASSERT_EQ(runBtfsim("simulate " + scene("brick") + " -o " + p + kSmall, &out), 0) << out;

@@ -4,8 +4,39 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace btf {
+
+namespace {
+
+// Rank r's contiguous share [b, e) of n work items (all of them without a distributed comm).
+std::pair<int64_t, int64_t> shareOf(const Comm* comm, int64_t n) {
+  if (!comm || !comm->distributed()) return {0, n};
+  const int64_t R = comm->size(), r = comm->rank();
+  return {n * r / R, n * (r + 1) / R};
+}
+
+// Every rank's share of `v` (items of `per` Rgb each, shares as shareOf) sent to every rank.
+void gatherShares(Comm* comm, int64_t n, size_t per, std::vector<Rgb>& v) {
+  if (!comm || !comm->distributed()) return;
+  const auto [b, e] = shareOf(comm, n);
+  const std::string mine(reinterpret_cast<const char*>(v.data() + size_t(b) * per),
+                         size_t(e - b) * per * sizeof(Rgb));
+  const std::vector<std::string> all = comm->allgather(mine);
+  const int64_t R = comm->size();
+  for (int64_t q = 0; q < R; ++q) {
+    const int64_t qb = n * q / R, qe = n * (q + 1) / R;
+    if (all[size_t(q)].size() != size_t(qe - qb) * per * sizeof(Rgb))
+      throw Error("path-traced reference: rank " + std::to_string(q) + " sent " +
+                  std::to_string(all[size_t(q)].size()) + " bytes, expected " +
+                  std::to_string(size_t(qe - qb) * per * sizeof(Rgb)));
+    std::memcpy(reinterpret_cast<char*>(v.data() + size_t(qb) * per), all[size_t(q)].data(),
+                all[size_t(q)].size());
+  }
+}
+
+}  // namespace
 
 void tracePath(const PeriodicTracer& tracer, const std::vector<Material>& materials,
                const DVec3& p0, const DVec3& wo, const DVec3* lights, int nLights,
@@ -60,15 +91,18 @@ void tracePath(const PeriodicTracer& tracer, const std::vector<Material>& materi
 std::vector<Rgb> pathTracedBrdf(const PeriodicTracer& tracer,
                                 const std::vector<Material>& materials,
                                 const std::vector<DirectionPair>& pairs, int n, int paths,
-                                const PathSettings& settings, const CancelToken* cancel) {
+                                const PathSettings& settings, const CancelToken* cancel,
+                                Comm* comm) {
   if (n < 1) throw Error("samples per axis must be >= 1");
   if (paths < 1) throw Error("paths per sample must be >= 1");
   const TileGeometry& g = tracer.geometry();
   std::vector<Rgb> partials(pairs.size() * size_t(n), Rgb(0));
+  const int64_t rows = int64_t(pairs.size()) * n;
+  const auto [k0, k1] = shareOf(comm, rows);
   parallelForChunks(
-      int64_t(pairs.size()) * n, 1,
+      k1 - k0, 1,
       [&](int64_t b, int64_t e) {
-        for (int64_t k = b; k < e; ++k) {
+        for (int64_t k = k0 + b; k < k0 + e; ++k) {
           const size_t pi = size_t(k / n);
           const int row = int(k % n);
           const DirectionPair& pr = pairs[pi];
@@ -84,23 +118,26 @@ std::vector<Rgb> pathTracedBrdf(const PeriodicTracer& tracer,
         }
       },
       cancel);
+  gatherShares(comm, rows, 1, partials);
   return reduceRows(partials, pairs.size(), n, 1.0f / (float(n) * float(n) * float(paths)));
 }
 
 std::vector<Rgb> pathTracedTexels(const PeriodicTracer& tracer,
                                   const std::vector<Material>& materials, const SampleGrid& grid,
                                   const DVec3& wo, const std::vector<DVec3>& lights, int paths,
-                                  const PathSettings& settings, const CancelToken* cancel) {
+                                  const PathSettings& settings, const CancelToken* cancel,
+                                  Comm* comm) {
   if (paths < 1) throw Error("paths per sample must be >= 1");
   const int nL = int(lights.size());
   const int64_t texels = int64_t(grid.nu) * grid.nv;
   std::vector<Rgb> out(size_t(texels) * size_t(nL), Rgb(0));
   const int K2 = grid.spp * grid.spp;
   const float w = 1.0f / (float(K2) * float(paths));
+  const auto [t0, t1] = shareOf(comm, texels);
   parallelForChunks(
-      texels, 4,
+      t1 - t0, 4,
       [&](int64_t b, int64_t e) {
-        for (int64_t t = b; t < e; ++t) {
+        for (int64_t t = t0 + b; t < t0 + e; ++t) {
           const int i = int(t % grid.nu), j = int(t / grid.nu);
           for (int s = 0; s < K2; ++s) {
             const int64_t si = grid.sampleIndex(i, j, s);
@@ -114,6 +151,7 @@ std::vector<Rgb> pathTracedTexels(const PeriodicTracer& tracer,
         }
       },
       cancel);
+  gatherShares(comm, texels, size_t(nL), out);
   return out;
 }
 

@@ -7,6 +7,7 @@
 // techniques), with Russian roulette after a minimum depth. Random numbers are counter-based
 // streams keyed by (seed, pair or pixel, sample, path): results do not depend on thread count.
 #pragma once
+#include <btf/core/comm.h>
 #include <btf/core/parallel.h>
 #include <btf/core/rng.h>
 #include <btf/scene/material.h>
@@ -36,17 +37,21 @@ void tracePath(const PeriodicTracer& tracer, const std::vector<Material>& materi
 
 /// Texel-averaged aBRDF of each pair from n×n jittered plane positions (the positions of
 /// averagedBrdf) and `paths` paths per position.
+/// With a distributed `comm` (every rank calls it, with the same arguments) each rank traces a
+/// contiguous share of the work (rows of positions; texels) and the shares are allgathered:
+/// every rank returns the bytes one process would.
 std::vector<Rgb> pathTracedBrdf(const PeriodicTracer& tracer,
                                 const std::vector<Material>& materials,
                                 const std::vector<DirectionPair>& pairs, int n, int paths,
-                                const PathSettings& settings, const CancelToken* cancel = nullptr);
+                                const PathSettings& settings, const CancelToken* cancel = nullptr,
+                                Comm* comm = nullptr);
 
 /// Per-texel aBRDF of one view and every light of `lights`, on the simulator's sample grid (same
 /// sample positions as the hit maps), `paths` paths per sample: out[(texel * nLights + l)].
 std::vector<Rgb> pathTracedTexels(const PeriodicTracer& tracer,
                                   const std::vector<Material>& materials, const SampleGrid& grid,
                                   const DVec3& wo, const std::vector<DVec3>& lights, int paths,
-                                  const PathSettings& settings,
-                                  const CancelToken* cancel = nullptr);
+                                  const PathSettings& settings, const CancelToken* cancel = nullptr,
+                                  Comm* comm = nullptr);
 
 }  // namespace btf

@@ -166,10 +166,13 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
   PathSettings ps;
   ps.maxBounces = 0;
   ps.seed = o.seed ^ 0x5eed;
+  // In a cluster job every rank traces a share of each reference and all get the whole (the
+  // bytes of one process).
+  Comm& comm = o.comm ? *o.comm : localComm();
   {
     ProgressReporter pr("reference", 1, o.progress);
-    st.reference =
-        pathTracedBrdf(refJob.tracer(), refJob.materials(), st.probes, o.referenceSamples, 1, ps);
+    st.reference = pathTracedBrdf(refJob.tracer(), refJob.materials(), st.probes,
+                                  o.referenceSamples, 1, ps, o.cancel, &comm);
     pr.finish();
   }
   std::vector<std::vector<Rgb>> refImages;
@@ -177,13 +180,26 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
   for (int pi : st.imageProbes)
     refImages.push_back(pathTracedTexels(refJob.tracer(), refJob.materials(), refGrid,
                                          st.probes[size_t(pi)].wo, {st.probes[size_t(pi)].wi},
-                                         o.imagePaths, ps));
+                                         o.imagePaths, ps, o.cancel, &comm));
+  // Per direction set of the sweep, the probes snapped to the set's nearest directions and
+  // their reference at exactly those directions.
+  std::map<std::string, std::vector<Rgb>> setReference;
+  for (const StudyConfig& c : configs) {
+    if (setReference.count(c.dirs)) continue;
+    SimOptions so = base;
+    so.directions = c.dirs;
+    const SimulationJob dj(scene, so);
+    const DirectionSet& dirs = dj.directions();
+    std::vector<DirectionPair> snapped;
+    for (const auto& p : st.probes)
+      snapped.push_back({dirs[dirs.nearest(p.wi)].w, dirs[dirs.nearest(p.wo)].w});
+    setReference.emplace(c.dirs, pathTracedBrdf(refJob.tracer(), refJob.materials(), snapped,
+                                                o.referenceSamples, 1, ps, o.cancel, &comm));
+  }
   st.referenceSeconds = since(t0);
   double refSq = 0;
   for (const Rgb& r : st.reference) refSq += double(glm::dot(r, r));
 
-  std::map<std::string, std::vector<Rgb>> setReference;  // per direction set, snapped probes
-  Comm& comm = o.comm ? *o.comm : localComm();
   std::vector<size_t> mine;
   for (size_t i = size_t(comm.rank()); i < configs.size(); i += size_t(comm.size()))
     mine.push_back(i);
@@ -280,12 +296,8 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
         snapped.push_back({dirs[a].w, dirs[b].w});
         snappedIdx.push_back({a, b});
       }
-      auto it = setReference.find(c.dirs);
-      if (it == setReference.end())
-        it = setReference
-                 .emplace(c.dirs, pathTracedBrdf(refJob.tracer(), refJob.materials(), snapped,
-                                                 o.referenceSamples, 1, ps))
-                 .first;
+      const auto it = setReference.find(c.dirs);
+      BTF_CHECK(it != setReference.end());
       double sErr = 0, sRef = 0;
       for (size_t p = 0; p < snapped.size(); ++p) {
         const size_t k =
