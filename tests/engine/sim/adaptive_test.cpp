@@ -224,9 +224,11 @@ TEST(Adaptive, TileAverageIsReciprocalAtDefaultSettings) {
         worst = std::max(worst, std::abs(x - y) / std::max(x, y));
       }
     std::printf("  %-9s worst reciprocity gap of the tile average %.2f %%\n", name, 100 * worst);
-    // Issue 12 asks ≤ 1 %; measured (16² texels, 4×8, θ ≤ 60°): brick 1.9 %, V-grooves 3.0 %,
-    // spheres 0.6 % with the network's inter-reflection on — the bound of the GI test.
-    EXPECT_LT(worst, 0.035);
+    // Issue 12 asks ≤ 1 %; measured (16² texels, 4×8, θ ≤ 60°) with the network's default
+    // density (one voxel per texel, at least 32 per side): brick 0.86 %, V-grooves 1.24 %,
+    // spheres 0.42 % (with 16 voxels per side 2.45 %, 2.95 %, 0.66 %). V-grooves' part is the
+    // adaptive sampling of the direct light (1.5 % with direct light alone).
+    EXPECT_LT(worst, std::string(name) == "vgrooves" ? 0.016 : 0.01);
   }
 }
 
