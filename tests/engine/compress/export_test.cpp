@@ -89,6 +89,15 @@ std::map<std::string, std::string> readStoredZip(const std::string& path) {
   return out;
 }
 
+// The direction of `info` whose rounded (θ, φ mod 360) in degrees is (th, ph), or −1.
+int directionNamed(const BtfInfo& info, int th, int ph) {
+  for (int i = 0; i < info.nDirs(); ++i)
+    if (std::lround(info.dirsDeg[size_t(i)][0]) == th &&
+        std::lround(info.dirsDeg[size_t(i)][1]) % 360 == ph)
+      return i;
+  return -1;
+}
+
 float srgbDecode(float p) {
   return p <= 0.04045f ? p / 12.92f : std::pow((p + 0.055f) / 1.055f, 2.4f);
 }
@@ -103,13 +112,7 @@ TEST(Export, Ubo2003ImageSetReadBackByNames) {
   EXPECT_EQ(exportUbo2003(*raw, out, false).images, 81 * 81);
   // Reader: every .exr under the folder; the angle block ends the name.
   const std::regex re("tl(\\d{3})[ _]pl(\\d{3})[ _]tv(\\d{3})[ _]pv(\\d{3})\\.exr$");
-  auto indexOf = [&](int th, int ph) {
-    for (int i = 0; i < info.nDirs(); ++i)
-      if (std::lround(info.dirsDeg[size_t(i)][0]) == th &&
-          std::lround(info.dirsDeg[size_t(i)][1]) % 360 == ph)
-        return i;
-    return -1;
-  };
+  auto indexOf = [&](int th, int ph) { return directionNamed(info, th, ph); };
   int files = 0, checked = 0;
   for (const auto& e : std::filesystem::recursive_directory_iterator(out)) {
     if (e.path().extension() != ".exr") continue;
@@ -405,13 +408,7 @@ TEST(Export, Ubo2003JpegZipAndPngAsThePyPIReadersTakeThem) {
     }
   }
   ASSERT_GT(peak, 0);
-  auto indexOf = [&](int th, int ph) {
-    for (int i = 0; i < info.nDirs(); ++i)
-      if (std::lround(info.dirsDeg[size_t(i)][0]) == th &&
-          std::lround(info.dirsDeg[size_t(i)][1]) % 360 == ph)
-        return i;
-    return -1;
-  };
+  auto indexOf = [&](int th, int ph) { return directionNamed(info, th, ph); };
   for (const char* fmt : {"jpg", "png"}) {
     SCOPED_TRACE(fmt);
     Ubo2003Options o;
