@@ -650,7 +650,10 @@ class TensorEncoder final : public Encoder {
 
 class TensorDecoder final : public Decoder {
  public:
-  explicit TensorDecoder(CompressedBtf c) : Decoder(c.info), m_c(std::move(c)) {
+  /// `projected`: also build the per-(cluster, view) projected cores for random access (the GPU
+  /// tables do not need them).
+  explicit TensorDecoder(CompressedBtf c, bool projected = true)
+      : Decoder(c.info), m_c(std::move(c)) {
     m_n = m_info.nDirs();
     const int64_t T = m_info.texels();
     const CArray& cl = m_c.array("cluster");
@@ -722,6 +725,40 @@ class TensorDecoder final : public Decoder {
         }
       });
     }
+    // Per (cluster, view) the core projected on the view's factor row, W_j = xᵀ core_j (Rt × Rl),
+    // when every cluster's fit in 256 MiB: one value is then Rt·Rl products (u · (W y)) instead
+    // of Rv·Rl — random access and the renderer's lookups.
+    // Built when it fits in 256 MiB and costs at most 2·10⁹ multiply-adds (~1 s on 2 cores).
+    uint64_t wSize = 0, wCost = 0;
+    for (int ch = 0; ch < 3; ++ch)
+      for (int k = 0; k < m_K; ++k) {
+        m_offW[ch].push_back(int64_t(wSize));
+        const Ranks& r = m_r[ch][size_t(k)];
+        wSize += uint64_t(m_n) * uint64_t(r.t) * uint64_t(r.l);
+        wCost += uint64_t(m_n) * uint64_t(r.t) * uint64_t(r.l) * uint64_t(r.v);
+      }
+    if (projected && wSize * 4 <= (uint64_t(256) << 20) && wCost <= uint64_t(2000000000)) {
+      m_Wall.resize(size_t(wSize));
+      parallelForChunks(int64_t(m_K) * m_n, 16, [&](int64_t b, int64_t e) {
+        for (int64_t kv = b; kv < e; ++kv) {
+          const int k = int(kv / m_n), v = int(kv % m_n);
+          for (int ch = 0; ch < 3; ++ch) {
+            const Ranks& r = m_r[ch][size_t(k)];
+            const int64_t d = int64_t(r.v) * r.l;
+            const float* x = m_view[ch]->data.data() + m_offV[ch][size_t(k)] + int64_t(v) * r.v;
+            const float* core = m_core[ch]->data.data() + m_offC[ch][size_t(k)];
+            float* W = m_Wall.data() + m_offW[ch][size_t(k)] + int64_t(v) * r.t * r.l;
+            for (int j = 0; j < r.t; ++j)
+              for (int q = 0; q < r.l; ++q) {
+                double acc = 0;
+                for (int i = 0; i < r.v; ++i)
+                  acc += double(x[i]) * core[int64_t(j) * d + int64_t(i) * r.l + q];
+                W[int64_t(j) * r.l + q] = float(acc);
+              }
+          }
+        }
+      });
+    }
   }
   std::string kind() const override { return "tensor"; }
 
@@ -779,19 +816,32 @@ class TensorDecoder final : public Decoder {
   std::array<float, 3> value(int64_t t, int view, int light) const override {
     std::vector<float> tmp;
     const int k = m_texCluster[size_t(t)];
-    const float* Mt = matrices(t, tmp);
+    const float* Mt = m_Wall.empty() ? matrices(t, tmp) : nullptr;
     float in[3] = {0, 0, 0};
     for (int ch = 0; ch < 3; ++ch) {
       const Ranks& r = m_r[ch][size_t(k)];
       if (r.t > 0) {
         const float* x = m_view[ch]->data.data() + m_offV[ch][size_t(k)] + int64_t(view) * r.v;
         const float* y = m_light[ch]->data.data() + m_offL[ch][size_t(k)] + int64_t(light) * r.l;
-        // xᵀ (M y) in float, vectorised (the GLSL decoder's arithmetic too).
-        const Eigen::Map<const RowMat> M(Mt, r.v, r.l);
-        const Eigen::Map<const la::VecF> xv(x, r.v), yv(y, r.l);
-        in[ch] = xv.dot(M * yv);
+        const Eigen::Map<const la::VecF> yv(y, r.l);
+        float acc = 0;
+        if (!m_Wall.empty()) {
+          // u · (W y): the texel's Rt coefficients against the view's projected core.
+          int64_t o = m_texOffset[size_t(t)];
+          for (int q = 0; q < ch; ++q) o += m_r[q][size_t(k)].t;
+          const float* u = m_coef->data.data() + o;
+          const float* W = m_Wall.data() + m_offW[ch][size_t(k)] + int64_t(view) * r.t * r.l;
+          for (int j = 0; j < r.t; ++j)
+            acc += u[j] * Eigen::Map<const la::VecF>(W + int64_t(j) * r.l, r.l).dot(yv);
+        } else {
+          // xᵀ (M y) in float (the GLSL decoder's arithmetic), row by row: each row's dot
+          // product vectorised, no temporary vector.
+          for (int i = 0; i < r.v; ++i)
+            acc += x[i] * Eigen::Map<const la::VecF>(Mt + int64_t(i) * r.l, r.l).dot(yv);
+        }
+        in[ch] = acc;
       }
-      Mt += int64_t(r.v) * r.l;
+      if (Mt) Mt += int64_t(r.v) * r.l;
     }
     std::array<float, 3> rgb{};
     fromColour(m_c.colour, in, rgb.data());
@@ -839,6 +889,8 @@ class TensorDecoder final : public Decoder {
   std::vector<int> m_texCluster;
   std::vector<int64_t> m_texOffset, m_texM;
   std::vector<float> m_M;
+  std::vector<int64_t> m_offW[3];  // per channel and cluster: offset of its views' W blocks
+  std::vector<float> m_Wall;       // every W block (empty: over the budget)
 };
 
 }  // namespace
@@ -856,9 +908,9 @@ TensorGpuTables tensorGpuTables(const CompressedBtf& c, uint64_t maxMatrixFloats
   if (!c.levels.empty()) {
     // A pyramid: the tables of every level's texels, level 0's first (what a shader indexing
     // texels u + Nu·v reads).
-    return TensorDecoder(asStrip(c)).gpuTables(maxMatrixFloats);
+    return TensorDecoder(asStrip(c), false).gpuTables(maxMatrixFloats);
   }
-  return TensorDecoder(c).gpuTables(maxMatrixFloats);
+  return TensorDecoder(c, false).gpuTables(maxMatrixFloats);
 }
 
 }  // namespace btf

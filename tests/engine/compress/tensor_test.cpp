@@ -199,10 +199,14 @@ TEST(Tensor, PlantedLowRankClustersAreRecoveredExactly) {
       e2 += (buf[i] - ref) * (buf[i] - ref);
       r2 += ref * ref;
     }
-    const auto one = dec->value(t, 5, 17);
-    for (int ch = 0; ch < 3; ++ch)
-      EXPECT_NEAR(one[size_t(ch)], buf[(size_t(5) * n + 17) * 3 + size_t(ch)],
-                  1e-5f * (1 + std::abs(one[size_t(ch)])));
+    // Random access (the projected cores W = xᵀ core per cluster and view) = the whole texel.
+    for (int q = 0; q < 16; ++q) {
+      const int vv = int((t * 7 + q * 13) % n), ll = int((t * 11 + q * 5 + 3) % n);
+      const auto one = dec->value(t, vv, ll);
+      for (int ch = 0; ch < 3; ++ch)
+        EXPECT_NEAR(one[size_t(ch)], buf[(size_t(vv) * n + size_t(ll)) * 3 + size_t(ch)],
+                    1e-5f * (1 + std::abs(one[size_t(ch)])));
+    }
   }
   EXPECT_LT(std::sqrt(e2 / r2), 1e-5);
 }
