@@ -396,7 +396,6 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
   m_setupSeconds = since(start);
   const bool tail = m_closedFormTail && P >= 3;
   const int nSolved = lightLimit > 0 ? std::min(lightLimit, m_nL) : m_nL;
-  std::vector<double> tailRatio(size_t(nSolved), 0.0);
   parallelForChunks(
       nSolved, 1,
       [&](int64_t lb, int64_t le) {
@@ -465,15 +464,11 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
             // The orders past P − 1 as a geometric series of the measured ratio: the last order
             // (eOrder at the points, linPrev along the links) times r / (1 − r).
             Rgb f(0);
-            double rY = 0, wY = 0;
             for (int c = 0; c < 3; ++c) {
               const double r =
                   prevSum[c] > 0 ? std::clamp(orderSum[c] / prevSum[c], 0.0, 0.95) : 0.0;
               f[c] = float(r / (1 - r));
-              const double y = c == 0 ? 0.2126 : c == 1 ? 0.7152 : 0.0722;
-              rY += y * prevSum[c] * r, wY += y * prevSum[c];
             }
-            tailRatio[size_t(l)] = wY > 0 ? rY / wY : 0.0;
             for (size_t k = 0; k < nP; ++k) eTot[k] += eOrder[k] * f;
             if (perLink)
               for (size_t e = 0; e < nLk; ++e) linTot[e] += linPrev[e] * f;
@@ -501,8 +496,6 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
       },
       cancel);
   throwIfCancelled(cancel, "network light");
-  m_meanTailRatio = 0;
-  for (double r : tailRatio) m_meanTailRatio += r / double(std::max(1, nSolved));
   m_seconds = since(start);
 }
 

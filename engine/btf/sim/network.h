@@ -125,8 +125,6 @@ class NetworkLighting {
   /// gains its last order × r / (1 − r) — the higher orders take the shape of the last one (the
   /// transport's dominant mode). Needs P ≥ 3; ignored otherwise.
   void setClosedFormTail(bool on) { m_closedFormTail = on; }
-  /// Mean over lights of the luminance-weighted ratio r the closed form used (0 when unused).
-  double meanTailRatio() const { return m_meanTailRatio; }
   int lights() const { return m_nL; }
   /// nL × 3 floats of point k: indirect irradiance / cos θi, per light and channel.
   const float* irradiance(uint32_t k) const { return &m_E[size_t(k) * size_t(m_nL) * 3]; }
@@ -151,7 +149,6 @@ class NetworkLighting {
   GlossyGather m_glossy = GlossyGather::None;
   double m_seconds = 0, m_setupSeconds = 0;
   bool m_closedFormTail = false;
-  double m_meanTailRatio = 0;
 };
 
 /// The final gather of the indirect term for the direct hits of a view.

@@ -240,25 +240,23 @@ struct TexelKernel {
   /// Texels t0 … t0 + count − 1 (row-major over nu columns) seen from `view`: texel k's row of
   /// lights at out + k · stride. Every value equals eval's.
   int64_t evalBlock(int64_t t0, int count, int nu, int view, float* out, size_t stride) const {
-    if (count == 1 || blockTexels() == 1) {
+    BTF_CHECK(count >= 1 && count <= blockTexels());
+    if (count == 1) {
       int64_t n = 0;
       for (int k = 0; k < count; ++k)
         n += eval(int((t0 + k) % nu), int((t0 + k) / nu), view, out + size_t(k) * stride);
       return n;
     }
+    // count ≤ kBlockTexels: one block.
     int ti[DirectIllumination::kBlockTexels], tj[DirectIllumination::kBlockTexels];
     float* rows[DirectIllumination::kBlockTexels];
-    int64_t n = 0;
-    for (int b = 0; b < count; b += DirectIllumination::kBlockTexels) {
-      const int m = std::min(count - b, DirectIllumination::kBlockTexels);
-      for (int k = 0; k < m; ++k) {
-        ti[k] = int((t0 + b + k) % nu), tj[k] = int((t0 + b + k) / nu);
-        rows[k] = out + size_t(b + k) * stride;
-      }
-      n += direct.evalTexelsView(ti, tj, m, view, rows);
-      if (gather)
-        for (int k = 0; k < m; ++k) addGather(ti[k], tj[k], view, rows[k]);
+    for (int k = 0; k < count; ++k) {
+      ti[k] = int((t0 + k) % nu), tj[k] = int((t0 + k) / nu);
+      rows[k] = out + size_t(k) * stride;
     }
+    const int64_t n = direct.evalTexelsView(ti, tj, count, view, rows);
+    if (gather)
+      for (int k = 0; k < count; ++k) addGather(ti[k], tj[k], view, rows[k]);
     return n;
   }
 
@@ -291,21 +289,19 @@ struct TexelKernel {
   void addGather(int i, int j, int view, float* out) const {
     const SampleGrid& g = maps.grid();
     const int K2 = g.spp * g.spp;
-    {
-      const DVec3 wv = dirs[view].w;
-      const float invK2 = 1.0f / float(K2);
-      const TileGeometry& geom = tracer.geometry();
-      for (int s = 0; s < K2; ++s) {
-        const int64_t si = g.sampleIndex(i, j, s);
-        const uint32_t prim = maps.prim(view, si);
-        if (prim == kNoHit) continue;
-        const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
-        const Vec3 p = Vec3(p0 + double(maps.depth(view, si)) * wv);
-        Vec3 ng, ns;
-        if (!hitNormals(geom, prim, maps.bu(view, si), maps.bv(view, si), Vec3(wv), &ng, &ns))
-          continue;
-        gather->add(p, ng, ns, prim, Vec3(wv), invK2, out);
-      }
+    const DVec3 wv = dirs[view].w;
+    const float invK2 = 1.0f / float(K2);
+    const TileGeometry& geom = tracer.geometry();
+    for (int s = 0; s < K2; ++s) {
+      const int64_t si = g.sampleIndex(i, j, s);
+      const uint32_t prim = maps.prim(view, si);
+      if (prim == kNoHit) continue;
+      const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
+      const Vec3 p = Vec3(p0 + double(maps.depth(view, si)) * wv);
+      Vec3 ng, ns;
+      if (!hitNormals(geom, prim, maps.bu(view, si), maps.bv(view, si), Vec3(wv), &ng, &ns))
+        continue;
+      gather->add(p, ng, ns, prim, Vec3(wv), invK2, out);
     }
   }
 };
@@ -706,10 +702,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
       const int B = kernel.blockTexels();
       const int64_t blocks = (t1 - t0 + B - 1) / B;
       parallelForChunks(
-          blocks * nD,
-          B > 1 ? 1
-          : pt  ? 1
-                : 8,
+          blocks * nD, B > 1 || pt ? 1 : 8,
           [&](int64_t b, int64_t e) {
             uint64_t local = 0;
             for (int64_t k = b; k < e; ++k) {

@@ -288,18 +288,15 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
       }
       res.probeRelRmse = refSq > 0 ? std::sqrt(errSq / refSq) : std::sqrt(errSq);
       // Snapped probes: the nearest direction of the set for light and view, the BTF read without
-      // interpolation, and a path-traced reference at exactly those directions (cached per set).
-      std::vector<DirectionPair> snapped;
+      // interpolation, and the set's reference at exactly those directions (traced before the
+      // sweep).
       std::vector<std::pair<int, int>> snappedIdx;
-      for (const auto& pr0 : st.probes) {
-        const int a = dirs.nearest(pr0.wi), b = dirs.nearest(pr0.wo);
-        snapped.push_back({dirs[a].w, dirs[b].w});
-        snappedIdx.push_back({a, b});
-      }
+      for (const auto& pr0 : st.probes)
+        snappedIdx.push_back({dirs.nearest(pr0.wi), dirs.nearest(pr0.wo)});
       const auto it = setReference.find(c.dirs);
       BTF_CHECK(it != setReference.end());
       double sErr = 0, sRef = 0;
-      for (size_t p = 0; p < snapped.size(); ++p) {
+      for (size_t p = 0; p < snappedIdx.size(); ++p) {
         const size_t k =
             (size_t(snappedIdx[p].second) * n + size_t(snappedIdx[p].first)) * 3;  // [view][light]
         const Rgb x = float(invT) * Rgb(avg[k], avg[k + 1], avg[k + 2]);
