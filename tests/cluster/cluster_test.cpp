@@ -69,14 +69,14 @@ TEST(Cluster, ThreeRanksWriteTheBytesOfOneProcess) {
     const auto j = nlohmann::json::parse(out.substr(out.find('{')));
     ASSERT_TRUE(j.contains("cluster")) << out;
     EXPECT_EQ(j["cluster"]["ranks"], 3);
-    int64_t texels = 0;
+    double texels = 0;
     for (const auto& r : j["cluster"]["per_rank"]) {
-      EXPECT_GT(r["texels"].get<int64_t>(), 0);
-      texels += r["texels"].get<int64_t>();
+      EXPECT_GT(r["texels"].get<double>(), 0);
+      texels += r["texels"].get<double>();
       // A plain simulation sends only agreements and sums: well under 1 % of what it computed.
       EXPECT_LT(r["communicated_fraction"].get<double>(), 0.01);
     }
-    EXPECT_EQ(texels, 24 * 24);
+    EXPECT_DOUBLE_EQ(texels, 24 * 24);
     for (const std::string codec : {"nmf", "tensor"}) {
       const std::string s1 = (dir / (name + "_" + codec + "_1.cbtf")).string();
       const std::string s3 = (dir / (name + "_" + codec + "_3.cbtf")).string();
@@ -99,6 +99,64 @@ TEST(Cluster, ThreeRanksWriteTheBytesOfOneProcess) {
       EXPECT_TRUE(sameFile(c1, c3)) << name << " compress " << codec;
     }
   }
+}
+
+// 12² texels are 5 chunks: fewer than twice the 3 ranks, so each chunk is cut into pieces of
+// contiguous views, computed on different ranks and gathered on one to be written or encoded.
+TEST(Cluster, AChunkCutByViewsOverTheRanksGivesTheBytesOfOneProcess) {
+  const auto dir = tempDir("cluster_views");
+  const std::string tiny = " --texels 12 --dirs 4x8 -q";
+  const std::string one = (dir / "one.btf").string(), three = (dir / "three.btf").string();
+  std::string out;
+  ASSERT_EQ(runBtfsim("simulate " + scene("brick") + " -o " + one + tiny + " --json", &out), 0)
+      << out;
+  ASSERT_EQ(nlohmann::json::parse(out.substr(out.find('{')))["chunks"].get<int>(), 5);
+  // Not quiet: the plan's notice names the cut.
+  ASSERT_EQ(
+      runBtfsim("simulate " + scene("brick") + " -o " + three + " --texels 12 --dirs 4x8 --json",
+                &out, mpirun(3)),
+      0)
+      << out;
+  EXPECT_NE(out.find("each chunk is cut into pieces of views"), std::string::npos) << out;
+  EXPECT_TRUE(sameFile(one, three));
+  // Every rank took a share (none idles with 5 chunks on 3 ranks: 15 pieces), and the shares
+  // add up to the tile.
+  const auto j = nlohmann::json::parse(out.substr(out.find("\n{") + 1));
+  double texels = 0;
+  for (const auto& r : j["cluster"]["per_rank"]) {
+    EXPECT_GT(r["texels"].get<double>(), 144.0 / 3 / 2) << j["cluster"].dump();
+    texels += r["texels"].get<double>();
+  }
+  EXPECT_NEAR(texels, 144, 1e-9);
+  // Streamed into a codec: the owner of a split chunk encodes it whole.
+  for (const std::string codec : {"nmf", "tensor"}) {
+    const std::string s1 = (dir / (codec + "_1.cbtf")).string();
+    const std::string s3 = (dir / (codec + "_3.cbtf")).string();
+    ASSERT_EQ(
+        runBtfsim("simulate " + scene("spheres") + " -o " + s1 + tiny + " --compress " + codec,
+                  &out),
+        0)
+        << out;
+    ASSERT_EQ(
+        runBtfsim("simulate " + scene("spheres") + " -o " + s3 + tiny + " --compress " + codec,
+                  &out, mpirun(3)),
+        0)
+        << out;
+    EXPECT_TRUE(sameFile(s1, s3)) << codec;
+  }
+  // A resume with 3 chunks missing (a single process killed after 2), on 3 ranks: the missing
+  // chunks are cut by views, the bytes those of the uninterrupted run.
+  const std::string r = (dir / "resumed.btf").string();
+  EXPECT_NE(runBtfsim("simulate " + scene("brick") + " -o " + r + tiny, &out,
+                      "BTF_TEST_ABORT_AFTER_CHUNKS=2"),
+            0);
+  ASSERT_TRUE(fs::exists(r + ".partial"));
+  ASSERT_EQ(runBtfsim("simulate " + scene("brick") + " -o " + r + tiny + " --resume --json", &out,
+                      mpirun(3)),
+            0)
+      << out;
+  EXPECT_EQ(nlohmann::json::parse(out.substr(out.find('{')))["chunks_resumed"].get<int>(), 2);
+  EXPECT_TRUE(sameFile(one, r));
 }
 
 TEST(Cluster, AKilledRankFailsTheJobAndAResumeOnOtherRanksCompletesIt) {

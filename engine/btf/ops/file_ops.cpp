@@ -129,7 +129,7 @@ void compress(const Call& c) {
   json& j = c.rep.json;
   if (comm.distributed()) {
     j["cluster"] =
-        clusterJson(comm, rep.texelsEncoded, rep.texelBytes, rep.commBytes, rep.encodeSeconds);
+        clusterJson(comm, double(rep.texelsEncoded), rep.texelBytes, rep.commBytes, rep.encodeSeconds);
     if (!comm.root()) return;  // rank 0 writes and reports
   }
   c.ctx.check("encoder");

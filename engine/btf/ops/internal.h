@@ -50,7 +50,7 @@ void study(const Call& c);
 /// A cluster job's figures (docs/cluster.md): per rank, texels computed or encoded and bytes
 /// communicated, against that rank's bytes of aBRDF. Every rank calls it (a collective).
 /// `seconds`: the rank's own work (its chunks), to show the balance.
-json clusterJson(Comm& comm, int64_t texels, double texelBytes, uint64_t commBytes, double seconds);
+json clusterJson(Comm& comm, double texels, double texelBytes, uint64_t commBytes, double seconds);
 std::string clusterText(const json& cluster);
 
 /// "1,2,3" → items; throws naming the option when empty.

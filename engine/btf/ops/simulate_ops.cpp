@@ -78,8 +78,7 @@ std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss)
 /// A pyramid's levels and their errors: the report's lines, and `levels` as JSON.
 std::string levelsReport(const PyramidReport& rep, json* levels);
 
-json clusterJson(Comm& comm, int64_t texels, double texelBytes, uint64_t commBytes,
-                 double seconds) {
+json clusterJson(Comm& comm, double texels, double texelBytes, uint64_t commBytes, double seconds) {
   // Per rank: texels, bytes of aBRDF it computed or encoded, bytes it sent and received, and the
   // seconds of its own share.
   const std::vector<double> mine = {double(texels), double(texels) * texelBytes, double(commBytes),
@@ -93,7 +92,7 @@ json clusterJson(Comm& comm, int64_t texels, double texelBytes, uint64_t commByt
     maxBytes = std::max(maxBytes, v[2]);
     slowest = std::max(slowest, v[3]);
     total += v[3];
-    ranks.push_back({{"texels", int64_t(v[0])},
+    ranks.push_back({{"texels", v[0]},
                      {"data_bytes", v[1]},
                      {"communicated_bytes", v[2]},
                      {"communicated_fraction", share},
@@ -113,8 +112,8 @@ std::string clusterText(const json& cl) {
              cl["communicator"].get<std::string>().c_str(), 100 * cl["balance"].get<double>());
   int r = 0;
   for (const auto& x : cl["per_rank"])
-    t += format(" [%d] %lld texels in %.1f s, %s sent+received (%.3f %% of its data)", r++,
-                (long long)x["texels"].get<int64_t>(), x["seconds"].get<double>(),
+    t += format(" [%d] %g texels in %.1f s, %s sent+received (%.3f %% of its data)", r++,
+                x["texels"].get<double>(), x["seconds"].get<double>(),
                 formatBytes(x["communicated_bytes"].get<double>()).c_str(),
                 100 * x["communicated_fraction"].get<double>());
   return t + "\n";
@@ -208,9 +207,14 @@ void simulate(const Call& c) {
   if (comm.distributed())
     // Every rank repeats the hit maps and the light solve; the aBRDF is shared.
     c.notice(format(
-        "cluster job: %s; %d chunk(s) over %d rank(s), %d thread(s) each; estimate "
+        "cluster job: %s; %d chunk(s) over %d rank(s)%s, %d thread(s) each; estimate "
         "%s (each rank: hit maps %s, network light %s, aBRDF %s)",
-        comm.describe().c_str(), est.chunks, comm.size(), est.threads,
+        comm.describe().c_str(), est.chunks, comm.size(),
+        est.chunks < 2 * comm.size()
+            ? " (fewer than twice the ranks: each chunk is cut into pieces of views, gathered on "
+              "one rank to be written)"
+            : "",
+        est.threads,
         formatSeconds(est.hitMapSeconds + est.lightSeconds + est.evalSeconds / comm.size()).c_str(),
         formatSeconds(est.hitMapSeconds).c_str(), formatSeconds(est.lightSeconds).c_str(),
         formatSeconds(est.evalSeconds / comm.size()).c_str()));

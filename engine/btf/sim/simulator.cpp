@@ -14,6 +14,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <future>
 #include <nlohmann/json.hpp>
 
@@ -306,6 +307,86 @@ struct TexelKernel {
   }
 };
 
+// A cluster job's unit of work (docs/cluster.md): a whole chunk, or views [v0, v1) of a chunk
+// when fewer chunks are missing than twice the ranks.
+struct ViewPiece {
+  int chunk = 0, v0 = 0, v1 = 0;
+};
+struct SplitChunk {
+  int chunk = 0, owner = 0;  // owner: the rank of its first piece; it writes the chunk
+};
+
+// Every rank computes the same assignment from the same maps and done flags.
+void assignWork(const BtfInfo& info, const HitMaps& maps, int nu, int nD, const BtfWriter* writer,
+                const Comm& comm, std::vector<uint8_t>& mine, std::vector<ViewPiece>& pieces,
+                std::vector<SplitChunk>& splits) {
+  const int K = maps.grid().spp;
+  struct Work {
+    double cost;
+    ViewPiece p;
+  };
+  std::vector<std::vector<double>> viewCost;  // per missing chunk, per view
+  std::vector<int> missing;
+  for (int c = 0; c < info.chunks(); ++c) {
+    mine[size_t(c)] = 0;
+    if (writer && writer->chunkDone(c)) continue;
+    std::vector<double> w(size_t(nD), 0.0);
+    for (int64_t t = info.chunkBegin(c); t < info.chunkEnd(c); ++t) {
+      const int i = int(t % nu), j = int(t / nu);
+      for (int d = 0; d < nD; ++d)
+        w[size_t(d)] +=
+            maps.hasEdgeTables() && maps.edgeCount(d, i * K, (i + 1) * K, j * K, (j + 1) * K) ? 5.0
+                                                                                              : 1.0;
+    }
+    missing.push_back(c);
+    viewCost.push_back(std::move(w));
+  }
+  const int R = comm.size(), M = int(missing.size());
+  // Pieces per chunk: enough for about four per rank when the chunks alone are too few.
+  const int P = M > 0 && M < 2 * R ? std::min(nD, (4 * R + M - 1) / M) : 1;
+  std::vector<Work> work;
+  for (int m = 0; m < M; ++m) {
+    const std::vector<double>& w = viewCost[size_t(m)];
+    double total = 0;
+    for (double x : w) total += x;
+    // Contiguous view ranges of about equal cost, none empty.
+    int v0 = 0;
+    double acc = 0;
+    for (int k = 0; k < P; ++k) {
+      int v1 = nD;
+      if (k < P - 1) {
+        v1 = v0;
+        const double target = total * double(k + 1) / double(P);
+        while (v1 < nD - (P - 1 - k) && (v1 == v0 || acc + w[size_t(v1)] <= target))
+          acc += w[size_t(v1++)];
+      }
+      double c = 0;
+      for (int v = v0; v < v1; ++v) c += w[size_t(v)];
+      work.push_back({c, {missing[size_t(m)], v0, v1}});
+      v0 = v1;
+    }
+  }
+  std::stable_sort(work.begin(), work.end(),
+                   [](const Work& a, const Work& b) { return a.cost > b.cost; });
+  std::vector<double> load(size_t(R), 0.0);
+  std::vector<int> owner(size_t(info.chunks()), -1);
+  for (const Work& x : work) {
+    const int q = int(std::min_element(load.begin(), load.end()) - load.begin());
+    load[size_t(q)] += x.cost;
+    if (x.p.v0 == 0) owner[size_t(x.p.chunk)] = q;
+    if (q != comm.rank()) continue;
+    if (P == 1)
+      mine[size_t(x.p.chunk)] = 1;
+    else
+      pieces.push_back(x.p);
+  }
+  if (P > 1)
+    for (int c : missing) splits.push_back({c, owner[size_t(c)]});
+  std::sort(pieces.begin(), pieces.end(), [](const ViewPiece& a, const ViewPiece& b) {
+    return a.chunk != b.chunk ? a.chunk < b.chunk : a.v0 < b.v0;
+  });
+}
+
 }  // namespace
 
 SimEstimate SimulationJob::estimate(const std::string& outPath) const {
@@ -536,35 +617,16 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   }
   r.hitMapSeconds = since(start);
   r.hitMapRays = maps.raysTraced();
-  if (dist) {
-    // The missing chunks over the ranks by estimated cost, largest first to the least loaded
-    // rank (every rank computes the same assignment from the same maps). Cost: one per (texel,
-    // view), four more where the view's map has an edge in the texel's footprint — where
-    // adaptive sampling refines (uniform sampling: the texel count).
-    const int K = maps.grid().spp;
-    std::vector<std::pair<double, int>> cost;
-    for (int c = 0; c < info.chunks(); ++c) {
-      mine[size_t(c)] = 0;
-      if (writer && writer->chunkDone(c)) continue;
-      double w = 0;
-      for (int64_t t = info.chunkBegin(c); t < info.chunkEnd(c); ++t) {
-        const int i = int(t % m_opt.nu), j = int(t / m_opt.nu);
-        for (int d = 0; d < m_dirs.size(); ++d)
-          w += maps.hasEdgeTables() && maps.edgeCount(d, i * K, (i + 1) * K, j * K, (j + 1) * K)
-                   ? 5.0
-                   : 1.0;
-      }
-      cost.push_back({w, c});
-    }
-    std::stable_sort(cost.begin(), cost.end(),
-                     [](const auto& a, const auto& b) { return a.first > b.first; });
-    std::vector<double> load(size_t(comm.size()), 0.0);
-    for (const auto& [w, c] : cost) {
-      const size_t q = size_t(std::min_element(load.begin(), load.end()) - load.begin());
-      load[q] += w;
-      if (int(q) == comm.rank()) mine[size_t(c)] = 1;
-    }
-  }
+  // A cluster job's work: the missing chunks, by estimated cost, largest first to the least
+  // loaded rank (every rank computes the same assignment from the same maps). When fewer chunks
+  // are missing than twice the ranks, each is cut into pieces of contiguous views (cut at equal
+  // cost) so that no rank idles; a split chunk's pieces are gathered on the rank of its first
+  // piece, which writes (or encodes) it. Cost: one per (texel, view), four more where the view's
+  // map has an edge in the texel's footprint — where adaptive sampling refines.
+  std::vector<ViewPiece> pieces;   // this rank's pieces of split chunks
+  std::vector<SplitChunk> splits;  // every split chunk, in chunk order
+  if (dist)
+    assignWork(info, maps, m_opt.nu, m_dirs.size(), writer.get(), comm, mine, pieces, splits);
   r.precomputeSeconds = r.hitMapSeconds + (gi ? r.networkSeconds : 0);
   throwIfCancelled(cancel, "hit maps");
   const int nD = m_dirs.size();
@@ -681,8 +743,36 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   for (int c = 0; c < info.chunks(); ++c)
     if (mine[size_t(c)] && !(writer && writer->chunkDone(c)))
       myTexels += info.chunkEnd(c) - info.chunkBegin(c);
+  for (const ViewPiece& p : pieces) myTexels += info.chunkEnd(p.chunk) - info.chunkBegin(p.chunk);
   ProgressReporter pr("aBRDF", dist ? myTexels : info.texels(), m_opt.progress);
   const auto evalStart = Clock::now();
+  const size_t stride = size_t(nD) * size_t(nD) * 3;  // floats per texel
+  // Views [v0, v1) of texels [t0, t1) into `out` (texel t's view v at (t − t0)·texelStride +
+  // (v − v0)·nD·3). Work items: (block of B texels, view); B > 1 only for the plain direct kernel.
+  auto computeViews = [&](int64_t t0, int64_t t1, int v0, int v1, float* out, size_t texelStride) {
+    const int B = kernel.blockTexels();
+    const int64_t blocks = (t1 - t0 + B - 1) / B, nv = v1 - v0;
+    parallelForChunks(
+        blocks * nv, B > 1 || pt ? 1 : 8,
+        [&](int64_t b, int64_t e) {
+          uint64_t local = 0;
+          for (int64_t k = b; k < e; ++k) {
+            const int64_t tb = t0 + (k / nv) * B;
+            const int n = int(std::min<int64_t>(B, t1 - tb));
+            const int view = v0 + int(k % nv);
+            local += uint64_t(kernel.evalBlock(
+                tb, n, m_opt.nu, view,
+                out + size_t(tb - t0) * texelStride + size_t(view - v0) * nD * 3, texelStride));
+            if (view == v1 - 1) pr.add(n);
+          }
+          evals += local;
+        },
+        cancel);
+    r.abrdfValues += uint64_t(t1 - t0) * uint64_t(nv) * uint64_t(nD);
+    r.texelsComputed += double(t1 - t0) * double(nv) / double(nD);
+  };
+  // This rank's pieces of split chunks, each texel's views [v0, v1) contiguous.
+  std::vector<std::vector<float>> pieceValues(pieces.size());
   // On one rank, a failure ends the run here; in a cluster job every rank first reaches the
   // agreement below (so none waits forever), then all fail with the failing rank's message.
   collectively(comm, [&] {
@@ -694,34 +784,13 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
         continue;
       }
       ++r.chunksComputed;
-      r.texelsComputed += t1 - t0;
-      const size_t stride = size_t(nD) * size_t(nD) * 3;
       std::vector<float>& chunk = buffers[cur];
       chunk.assign(size_t(t1 - t0) * stride, 0.f);
-      // Work items: (block of B texels, view); B > 1 only for the plain direct kernel.
-      const int B = kernel.blockTexels();
-      const int64_t blocks = (t1 - t0 + B - 1) / B;
-      parallelForChunks(
-          blocks * nD, B > 1 || pt ? 1 : 8,
-          [&](int64_t b, int64_t e) {
-            uint64_t local = 0;
-            for (int64_t k = b; k < e; ++k) {
-              const int64_t tb = t0 + (k / nD) * B;
-              const int n = int(std::min<int64_t>(B, t1 - tb));
-              const int view = int(k % nD);
-              local += uint64_t(kernel.evalBlock(
-                  tb, n, m_opt.nu, view, &chunk[size_t(tb - t0) * stride + size_t(view) * nD * 3],
-                  stride));
-              if (view == nD - 1) pr.add(n);
-            }
-            evals += local;
-          },
-          cancel);
+      computeViews(t0, t1, 0, nD, chunk.data(), stride);
       if (cancel && cancel->cancelled()) {
         waitWrite();  // the chunk in flight lands in the .partial; then the one outcome
         throw Cancelled("aBRDF");
       }
-      r.abrdfValues += uint64_t(t1 - t0) * uint64_t(nD) * uint64_t(nD);
       if (m_sink) m_sink(c, t0, t1, chunk.data());
       if (writer) {
         waitWrite();  // at most one write in flight: the other buffer is free again
@@ -734,8 +803,63 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
       }
     }
     waitWrite();
-    r.rankEvalSeconds = since(evalStart);  // this rank's own chunks, before the agreement
+    for (size_t i = 0; i < pieces.size(); ++i) {
+      const ViewPiece& p = pieces[i];
+      const int64_t t0 = info.chunkBegin(p.chunk), t1 = info.chunkEnd(p.chunk);
+      const size_t ps = size_t(p.v1 - p.v0) * size_t(nD) * 3;
+      pieceValues[i].assign(size_t(t1 - t0) * ps, 0.f);
+      computeViews(t0, t1, p.v0, p.v1, pieceValues[i].data(), ps);
+      throwIfCancelled(cancel, "aBRDF");
+    }
+    r.rankEvalSeconds = since(evalStart);  // this rank's own work, before the agreement
   });
+  if (!splits.empty()) {
+    // Split chunks: every rank sends its pieces of chunk c to c's owner (one gather per chunk,
+    // in chunk order, every rank taking part), which assembles, encodes and writes it.
+    std::vector<std::pair<int, std::vector<float>>> assembled;
+    for (const SplitChunk& sc : splits) {
+      std::string mineBytes;
+      for (size_t i = 0; i < pieces.size(); ++i) {
+        if (pieces[i].chunk != sc.chunk) continue;
+        const int32_t range[2] = {pieces[i].v0, pieces[i].v1};
+        mineBytes.append(reinterpret_cast<const char*>(range), sizeof range);
+        mineBytes.append(reinterpret_cast<const char*>(pieceValues[i].data()),
+                         pieceValues[i].size() * sizeof(float));
+        std::vector<float>().swap(pieceValues[i]);
+      }
+      const std::vector<std::string> got = comm.gather(mineBytes, sc.owner);
+      if (comm.rank() != sc.owner) continue;
+      const int64_t t0 = info.chunkBegin(sc.chunk), t1 = info.chunkEnd(sc.chunk);
+      std::vector<float> chunk(size_t(t1 - t0) * stride, 0.f);
+      int covered = 0;
+      for (const std::string& g : got) {
+        size_t o = 0;
+        while (o < g.size()) {
+          int32_t range[2];
+          BTF_CHECK(g.size() - o >= sizeof range);
+          std::memcpy(range, g.data() + o, sizeof range);
+          o += sizeof range;
+          BTF_CHECK(range[0] >= 0 && range[0] < range[1] && range[1] <= nD);
+          const size_t ps = size_t(range[1] - range[0]) * size_t(nD) * 3;
+          BTF_CHECK(g.size() - o >= size_t(t1 - t0) * ps * sizeof(float));
+          for (int64_t t = t0; t < t1; ++t)
+            std::memcpy(&chunk[size_t(t - t0) * stride + size_t(range[0]) * nD * 3],
+                        g.data() + o + size_t(t - t0) * ps * sizeof(float), ps * sizeof(float));
+          o += size_t(t1 - t0) * ps * sizeof(float);
+          covered += range[1] - range[0];
+        }
+      }
+      BTF_CHECK(covered == nD);  // every view of the chunk, once
+      assembled.push_back({sc.chunk, std::move(chunk)});
+    }
+    collectively(comm, [&] {
+      for (const auto& [c, chunk] : assembled) {
+        ++r.chunksComputed;
+        if (m_sink) m_sink(c, info.chunkBegin(c), info.chunkEnd(c), chunk.data());
+        if (writer) writer->writeChunk(c, chunk.data());
+      }
+    });
+  }
   pr.finish();
   // Writes overlap the compute: the time spent waiting for the last one is not compute.
   r.evalSeconds = since(evalStart);

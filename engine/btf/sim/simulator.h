@@ -90,7 +90,7 @@ struct SimReport {
   // A cluster job (docs/cluster.md): ranks, the chunks and texels this rank computed, and the
   // bytes it sent and received through the communicator.
   int ranks = 1, chunksComputed = 0;
-  int64_t texelsComputed = 0;
+  double texelsComputed = 0;  // texels × views computed / views (a split chunk's share)
   double rankEvalSeconds = 0;  // this rank's aBRDF time (its chunks), before the final agreement
   uint64_t commBytes = 0;
 };
