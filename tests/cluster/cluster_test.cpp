@@ -219,7 +219,7 @@ TEST(Cluster, StudyAndCompareGiveTheFiguresOfOneProcess) {
   const std::string st =
       " --texels 8 --dirs 4x8 --spp 0,1 --shadows map --network-voxels 0 "
       "--gather 4 --links 16 --bounces 3,1 --reference-spp 16 --image-paths 2 "
-      "--image-spp 1 -q --json";
+      "--image-spp 1 --codecs nmf,svd,tensor -q --json";
   ASSERT_EQ(runBtfsim("study " + scene("brick") + " -o " + (dir / "s1").string() + st, &out), 0)
       << out;
   const auto a = nlohmann::json::parse(out.substr(out.find('{')));
@@ -238,6 +238,21 @@ TEST(Cluster, StudyAndCompareGiveTheFiguresOfOneProcess) {
       EXPECT_DOUBLE_EQ(x[k].get<double>(), y[k].get<double>()) << i << " " << k;
   }
   EXPECT_TRUE(fs::exists(dir / "s3" / "study.csv"));
+  // The compression study: its base store simulated over the ranks, codec i on rank i mod 3,
+  // the rows gathered on rank 0 in their order — the figures of one process.
+  ASSERT_EQ(a["compression"].size(), 3u);
+  ASSERT_EQ(b["compression"].size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    const auto& x = a["compression"][i];
+    const auto& y = b["compression"][i];
+    EXPECT_EQ(x["codec"], y["codec"]);
+    EXPECT_EQ(x["bytes"], y["bytes"]);
+    EXPECT_GT(x["relative_rmse"].get<double>(), 0.0);
+    for (const char* k : {"ratio", "rmse", "relative_rmse"})
+      EXPECT_DOUBLE_EQ(x[k].get<double>(), y[k].get<double>()) << i << " " << k;
+  }
+  EXPECT_EQ(readFile((dir / "s1" / "compression.csv").string()).substr(0, 20),
+            readFile((dir / "s3" / "compression.csv").string()).substr(0, 20));
   // The path-traced references (traced in shares over the three ranks, then allgathered) and
   // every probe value: the same bytes as one process.
   EXPECT_EQ(readFile((dir / "s1" / "probes.csv").string()),

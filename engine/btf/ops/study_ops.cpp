@@ -16,7 +16,11 @@ namespace btf::ops::detail {
 
 namespace {
 
-void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o) {
+// Over the ranks of a job (docs/cluster.md): the base store is simulated by every rank (its
+// chunks spread as in `simulate`), then codec setting i runs on rank i mod N (its time is that
+// rank's with its threads) and rank 0 gathers the rows and writes the tables; the pyramids of
+// --mip run on rank 0.
+void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o, Comm& comm) {
   const Request& r = c.r;
   const std::string& dir = r.s("output");
   std::vector<double> betas;
@@ -53,41 +57,69 @@ void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o) 
   {
     SimulationJob job(scene, so);
     job.setCancel(c.ctx.cancel);
-    const SimEstimate est = job.estimate(raw);
-    if (!est.refusal.empty()) throw Error("compression study: " + est.refusal);
+    job.setComm(&comm);
+    SimEstimate est;
+    collectively(comm, [&] {
+      est = job.estimate(raw);
+      if (!est.refusal.empty()) throw Error("compression study: " + est.refusal);
+    });
     c.notice("compression study: simulating the base configuration into " + raw);
     job.run(raw, est, c.ctx.cancel);
   }
-  const auto ref = openBtf(raw);
   struct Row {
     CodecSettings s;
-    double seconds, ratio, rmse, rel, psnr;
-    uint64_t bytes, rss;
+    double seconds = 0, ratio = 0, rmse = 0, rel = 0, psnr = 0;
+    uint64_t bytes = 0, rss = 0;
     std::string chosen;
     bool pareto = false;
   };
-  std::vector<Row> rows;
-  for (const auto& cs : settings) {
-    CompressReport rep;
-    CompressedBtf b = compressStore(raw, cs, c.progress(), c.ctx.cancel, &rep);
-    const json params = json::parse(b.paramsJson);
-    std::string chosen;
-    if (params.contains("components_per_channel")) chosen = params["components_per_channel"].dump();
-    if (params.contains("channels")) {
-      // nmf: (slots, view and light components) per channel; tensor: mean (Rv, Rl, Rt).
-      json ch = json::array();
-      for (const auto& x : params.at("channels")) {
-        if (x.contains("slots"))
-          ch.push_back({x.at("slots"), x.at("components_view"), x.at("components_light")});
-        else if (x.contains("mean_ranks"))
-          ch.push_back(x.at("mean_ranks"));
+  std::vector<Row> rows(settings.size());
+  for (size_t i = 0; i < settings.size(); ++i) rows[i].s = settings[i];
+  std::vector<size_t> mine;
+  for (size_t i = size_t(comm.rank()); i < settings.size(); i += size_t(comm.size()))
+    mine.push_back(i);
+  collectively(comm, [&] {
+    const auto ref = openBtf(raw);
+    for (size_t i : mine) {
+      const CodecSettings& cs = settings[i];
+      CompressReport rep;
+      CompressedBtf b = compressStore(raw, cs, c.progress() && comm.root(), c.ctx.cancel, &rep);
+      const json params = json::parse(b.paramsJson);
+      std::string chosen;
+      if (params.contains("components_per_channel"))
+        chosen = params["components_per_channel"].dump();
+      if (params.contains("channels")) {
+        // nmf: (slots, view and light components) per channel; tensor: mean (Rv, Rl, Rt).
+        json ch = json::array();
+        for (const auto& x : params.at("channels")) {
+          if (x.contains("slots"))
+            ch.push_back({x.at("slots"), x.at("components_view"), x.at("components_light")});
+          else if (x.contains("mean_ranks"))
+            ch.push_back(x.at("mean_ranks"));
+        }
+        chosen = ch.dump();
       }
-      chosen = ch.dump();
+      const auto dec = makeDecoder(std::move(b));
+      const ErrorReport e = compareBtfs(*ref, *dec, false, 10, c.ctx.cancel);
+      rows[i] = {cs,     rep.seconds,   rep.ratio,        e.rmse, e.relRmse,
+                 e.psnr, rep.fileBytes, rep.peakRssBytes, chosen};
     }
-    const auto dec = makeDecoder(std::move(b));
-    const ErrorReport e = compareBtfs(*ref, *dec, false, 10, c.ctx.cancel);
-    rows.push_back({cs, rep.seconds, rep.ratio, e.rmse, e.relRmse, e.psnr, rep.fileBytes,
-                    rep.peakRssBytes, chosen});
+  });
+  if (comm.distributed()) {
+    // Every rank's rows to rank 0, placed by index.
+    json part = json::array();
+    for (size_t i : mine) {
+      const Row& w = rows[i];
+      part.push_back({i, w.seconds, w.ratio, w.rmse, w.rel, w.psnr, w.bytes, w.rss, w.chosen});
+    }
+    const std::vector<std::string> all = comm.gather(part.dump(), 0);
+    if (!comm.root()) return;
+    for (const std::string& a : all)
+      for (const auto& x : json::parse(a)) {
+        Row& w = rows[x[0].get<size_t>()];
+        w.seconds = x[1], w.ratio = x[2], w.rmse = x[3], w.rel = x[4], w.psnr = x[5];
+        w.bytes = x[6], w.rss = x[7], w.chosen = x[8];
+      }
   }
   // Pareto front on (size, error): no other row is both smaller and more accurate.
   for (auto& row : rows) {
@@ -223,8 +255,11 @@ void study(const Call& c) {
                "thread(s): the times are theirs",
                comm.describe().c_str(), comm.size(), currentThreads()));
   const Study st = runStudy(scene, o);
-  // Rank 0 writes the tables (and runs the compression study, alone).
-  if (!comm.root()) return;
+  // Rank 0 writes the tables; the compression study runs over the ranks.
+  if (!comm.root()) {
+    if (!r.s("codecs").empty()) compressionStudy(c, scene, o, comm);
+    return;
+  }
   writeStudy(st, dir);
   std::string t = format("%-52s %9s %8s %8s %8s %7s\n", "configuration", "time", "interp.",
                          "at set", "image", "Pareto");
@@ -247,7 +282,7 @@ void study(const Call& c) {
   c.rep.json["configurations"] = arr;
   c.rep.summary =
       "wrote " + dir + "/study.csv (" + std::to_string(st.results.size()) + " configurations)";
-  if (!r.s("codecs").empty()) compressionStudy(c, scene, o);
+  if (!r.s("codecs").empty()) compressionStudy(c, scene, o, comm);
 }
 
 }  // namespace btf::ops::detail
