@@ -189,6 +189,12 @@ int App::startObjectRender(const std::string& mode, int spp, int size, const std
 
 void App::openCompressed(const std::string& path, const std::string& reference) {
   auto c = std::make_shared<CompressedBtf>(readCompressed(path));
+  // The object view decodes on the GPU, whose decoder has no half-vector resampling.
+  if (c->paramsJson.find("\"halfway\":true") != std::string::npos)
+    throw Error(path +
+                ": a tensor file in half-vector coordinates (--halfway) has no GPU decoder; "
+                "btfsim reads it (info, compare, render) — recompress without --halfway for the "
+                "studio");
   insp.decoder = makeDecoder(*c);
   insp.cbtf = c;
   insp.compressed = path;

@@ -35,6 +35,9 @@ void validate(const CodecSettings& s) {
   if (s.nmfIterations < 1) throw Error("--nmf-iterations: must be ≥ 1");
   if (s.trainTexels < 1) throw Error("--train-texels: must be ≥ 1");
   if (s.clusters < 0) throw Error("--clusters: must be ≥ 0 (0 = the codec's default)");
+  if (s.halfway && s.codec != "tensor")
+    throw Error("--halfway: the half-vector reparameterisation is an option of the tensor codec "
+                "(not " + s.codec + ")");
 }
 
 std::string settingsJson(const CodecSettings& s) {
@@ -54,7 +57,10 @@ std::string settingsJson(const CodecSettings& s) {
   } else {
     j["train_texels"] = s.trainTexels;
     if (s.codec == "lpca") j["clusters"] = s.clusters > 0 ? s.clusters : 8;
-    if (s.codec == "tensor") j["clusters"] = s.clusters;  // 0: √(texels / 2), see clusters_used
+    if (s.codec == "tensor") {
+      j["clusters"] = s.clusters;  // 0: √(texels / 2), see clusters_used
+      if (s.halfway) j["halfway"] = true;
+    }
   }
   j["precision"] = s.half ? "f16" : "f32";
   j["seed"] = s.seed;

@@ -39,6 +39,7 @@ struct CodecSettings {
   // Baselines.
   int trainTexels = 256;      // stratified training subset (per-view, global SVD, clustered PCA)
   int clusters = 0;           // lpca, tensor (0 = the codec's default: 8; √(texels / 2))
+  bool halfway = false;       // tensor: factorise each view's slice in half-vector coordinates
   bool half = true;           // f16 arrays (else f32)
   uint64_t memoryBudget = 0;  // > 0: compressStore refuses to start beyond it
   uint64_t seed = 1;

@@ -16,6 +16,7 @@
 //                      Rt first; a texel's offset is the sum over earlier texels (decoders derive
 //                      it from the cluster array)
 //   value_c(t, v, l) = Σ_j coef_t[j] Σ_a Σ_b view[v, a] core[j, a, b] light[l, b]
+#include <btf/compress/halfway.h>
 #include <btf/compress/mip.h>
 #include <btf/core/error.h>
 
@@ -78,6 +79,7 @@ class TensorEncoder final : public Encoder {
     // them); an explicit --clusters at most one per training texel.
     m_K = int(std::max<int64_t>(1, std::min<int64_t>(m_K, s.clusters > 0 ? m : m / 16)));
     m_train = stratifiedTexels(info.nu, info.nv, int(m), s.seed);
+    if (s.halfway) m_half = std::make_unique<HalfwayMap>(DirectionSet::fromName(info.directionSet));
     m_done.assign(size_t(m_T), 0);
     m_cluster.assign(size_t(m_T), 0);
     m_S.resize(size_t(m_T));
@@ -113,9 +115,9 @@ class TensorEncoder final : public Encoder {
     parallelForChunks(
         m, 1,
         [&](int64_t b, int64_t e) {
-          std::vector<float> conv(stride);
+          std::vector<float> conv(stride), hw(m_half ? stride : 0);
           for (int64_t i = b; i < e; ++i) {
-            toMatrices(values + size_t(i) * stride, conv.data(), &X[size_t(i) * 3]);
+            toMatrices(halfway(values + size_t(i) * stride, hw), conv.data(), &X[size_t(i) * 3]);
             m_sketch.apply(conv.data(), sk.col(i).data());
           }
         },
@@ -229,11 +231,11 @@ class TensorEncoder final : public Encoder {
     parallelForChunks(
         t1 - t0, 1,
         [&](int64_t b, int64_t e) {
-          std::vector<float> conv(stride), sk(kSketchDim);
+          std::vector<float> conv(stride), sk(kSketchDim), hw(m_half ? stride : 0);
           la::MatF A[3];
           for (int64_t i = b; i < e; ++i) {
             const int64_t t = t0 + i;
-            toMatrices(values + size_t(i) * stride, conv.data(), A);
+            toMatrices(halfway(values + size_t(i) * stride, hw), conv.data(), A);
             m_sketch.apply(conv.data(), sk.data());
             const int k = la::nearestCentre(m_centres, sk.data());
             m_cluster[size_t(t)] = k;
@@ -425,6 +427,13 @@ class TensorEncoder final : public Encoder {
   }
 
  private:
+  // A texel's values in half-vector coordinates (into `buf`) when the option is on.
+  const float* halfway(const float* x, std::vector<float>& buf) const {
+    if (!m_half) return x;
+    m_half->forward(x, buf.data());
+    return buf.data();
+  }
+
   la::MatF quantized(la::MatF M) const {
     for (int64_t i = 0; i < M.size(); ++i) M.data()[i] = roundStored(M.data()[i], m_s.half);
     return M;
@@ -644,6 +653,7 @@ class TensorEncoder final : public Encoder {
   int m_reseeds = 0;
   double m_trainRel = 0;
   bool m_trained = false;
+  std::unique_ptr<HalfwayMap> m_half;  // --halfway
 };
 
 // ------------------------------------------------------------------ decoder
@@ -704,6 +714,11 @@ class TensorDecoder final : public Decoder {
       m_texOffset[size_t(t) + 1] = m_texOffset[size_t(t)] + n;
     }
     m_coef = &checked("coef", m_texOffset.back());
+    {
+      const auto params = nlohmann::json::parse(m_c.paramsJson, nullptr, false);
+      if (params.is_object() && params.value("halfway", false))
+        m_half = std::make_unique<HalfwayMap>(*m_dirs);
+    }
     // Per-texel Rv × Rl matrices M = Σ_j coef_j core_j, when they fit in 256 MiB (one value is
     // then Rv·Rl products instead of Rt·Rv·Rl).
     int64_t mSize = 0;
@@ -789,6 +804,29 @@ class TensorDecoder final : public Decoder {
   }
 
   void texel(int64_t t, float* out) const override {
+    if (!m_half) return texelStored(t, out);
+    std::vector<float> hw(size_t(m_n) * m_n * 3);
+    texelStored(t, hw.data());
+    m_half->inverse(hw.data(), out);
+  }
+
+  std::array<float, 3> value(int64_t t, int view, int light) const override {
+    if (!m_half) return valueStored(t, view, light);
+    DirWeight w[4];
+    const int n = m_half->inverseTaps(view, light, w);
+    std::array<float, 3> out{0, 0, 0};
+    for (int i = 0; i < n; ++i) {
+      const std::array<float, 3> x = valueStored(t, view, w[i].index);
+      for (int c = 0; c < 3; ++c) out[size_t(c)] += float(w[i].weight) * x[size_t(c)];
+    }
+    return out;
+  }
+
+  bool halfway() const { return m_half != nullptr; }
+
+ private:
+  // The stored model's values: in half-vector coordinates with --halfway.
+  void texelStored(int64_t t, float* out) const {
     la::MatF V[3];
     std::vector<float> tmp;
     const int k = m_texCluster[size_t(t)];
@@ -813,7 +851,7 @@ class TensorDecoder final : public Decoder {
       }
   }
 
-  std::array<float, 3> value(int64_t t, int view, int light) const override {
+  std::array<float, 3> valueStored(int64_t t, int view, int light) const {
     std::vector<float> tmp;
     const int k = m_texCluster[size_t(t)];
     const float* Mt = m_Wall.empty() ? matrices(t, tmp) : nullptr;
@@ -848,7 +886,6 @@ class TensorDecoder final : public Decoder {
     return rgb;
   }
 
- private:
   const CArray& checked(const std::string& name, int64_t rows) const {
     const CArray& a = m_c.array(name);
     if (a.rows != rows || a.cols != 1)
@@ -889,8 +926,9 @@ class TensorDecoder final : public Decoder {
   std::vector<int> m_texCluster;
   std::vector<int64_t> m_texOffset, m_texM;
   std::vector<float> m_M;
-  std::vector<int64_t> m_offW[3];  // per channel and cluster: offset of its views' W blocks
-  std::vector<float> m_Wall;       // every W block (empty: over the budget)
+  std::vector<int64_t> m_offW[3];      // per channel and cluster: offset of its views' W blocks
+  std::vector<float> m_Wall;           // every W block (empty: over the budget)
+  std::unique_ptr<HalfwayMap> m_half;  // the stored model is in half-vector coordinates
 };
 
 }  // namespace
@@ -905,6 +943,11 @@ std::unique_ptr<Decoder> makeTensorDecoder(CompressedBtf c) {
 
 TensorGpuTables tensorGpuTables(const CompressedBtf& c, uint64_t maxMatrixFloats) {
   if (c.codec != "tensor") throw Error("tensor tables of a '" + c.codec + "' file");
+  const auto params = nlohmann::json::parse(c.paramsJson, nullptr, false);
+  if (params.is_object() && params.value("halfway", false))
+    throw Error(
+        "tensor tables: a file in half-vector coordinates (--halfway) has no GPU decoder "
+        "(docs/compression.md)");
   if (!c.levels.empty()) {
     // A pyramid: the tables of every level's texels, level 0's first (what a shader indexing
     // texels u + Nu·v reads).

@@ -143,6 +143,9 @@ Opts codecOptions(bool withName) {
                    "svd/perview/lpca/tensor: training texels (tensor: at least 32 per cluster)"),
                 in("clusters", 0, 0, 4096,
                    "lpca, tensor: k-means clusters (0 = lpca 8, tensor √(texels/2))"),
+                flag("halfway",
+                     "tensor: factorise each view's light slice in half-vector coordinates "
+                     "(docs/compression.md)"),
                 flag("f32", "store float32 arrays instead of float16"),
             });
   return o;

@@ -149,6 +149,7 @@ CodecSettings codecSettings(const Request& r, const std::string& codec) {
     s.nmfIterations = r.i("nmf_iterations");
     s.trainTexels = r.i("train_texels");
     s.clusters = r.i("clusters");
+    s.halfway = r.b("halfway");
     s.half = !r.b("f32");
   }
   validate(s);
