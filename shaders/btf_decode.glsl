@@ -17,11 +17,12 @@ uniform int u_c0[3];  // nmf: Cv; linear codecs: C
 uniform int u_c1[3];  // nmf: Cl
 uniform int u_k[3];   // nmf: slots K
 // Channel ch's arrays: nmf basis_view, basis_light, coef_view, coef_light; linear codecs use
-// a = basis, b = coef; tensor: view, light, core and the channel's cluster table (6 floats per
-// cluster: Rv, Rl, Rt and the offsets of its view, light and core blocks). For tensor,
-// u_cluster holds 3 floats per texel (cluster, offset in coef, offset in u_tM or -1), u_tcoef
-// the coefficients and u_tM the per-texel Rv × Rl matrices the CPU decoder also uses
-// (TensorGpuTables).
+// a = basis, b = coef; tensor: view, light, core and the channel's cluster table (7 floats per
+// cluster: Rv, Rl, Rt, the offsets of its view, light and core blocks, and of its G block in u_tM
+// or -1). For tensor, u_cluster holds 3 floats per texel (cluster, offset in coef, offset in u_tM
+// or -1), u_tcoef the coefficients, and u_tM either every cluster's projected cores
+// G[(v·n + l)·Rt + j] = x_vᵀ core_j y_l (when they fit) or the per-texel Rv × Rl matrices the CPU
+// decoder also uses (TensorGpuTables).
 uniform samplerBuffer u_a0, u_b0, u_c0buf, u_d0;
 uniform samplerBuffer u_a1, u_b1, u_c1buf, u_d1;
 uniform samplerBuffer u_a2, u_b2, u_c2buf, u_d2;
@@ -184,7 +185,8 @@ bool nmfFast() { return u_codec == 0 && max(max(u_k[0], u_k[1]), u_k[2]) <= MAX_
 // core), then M·y for the 4 interpolation lights (4·Rv·Rl products) and xᵀ(M·y) for the 16
 // pairs. Each pair is converted to RGB and clamped before the weighted sum, like the CPU.
 #define MAX_TR 128
-int tabInt(samplerBuffer tab, int k, int i) { return int(fetch(tab, k * 6 + i) + 0.5); }
+#define MAX_RT 32
+int tabInt(samplerBuffer tab, int k, int i) { return int(floor(fetch(tab, k * 7 + i) + 0.5)); }
 void tensorPairs(samplerBuffer view, samplerBuffer light, samplerBuffer core, samplerBuffer tab,
                  int t, int cOff, int mOff, int vi[4], float vw[4], int li[4], float lw[4],
                  out float val[16]) {
@@ -193,6 +195,24 @@ void tensorPairs(samplerBuffer view, samplerBuffer light, samplerBuffer core, sa
   int Rv = tabInt(tab, k, 0), Rl = tabInt(tab, k, 1), Rt = tabInt(tab, k, 2);
   if (Rt == 0) return;
   int oV = tabInt(tab, k, 3), oL = tabInt(tab, k, 4), oC = tabInt(tab, k, 5);
+  int oG = tabInt(tab, k, 6);
+  if (oG >= 0) {
+    // The cluster's core projected on both factor rows (u_tM holds the G blocks): Rt products of
+    // the texel's coefficients per pair.
+    float u[MAX_RT];
+    for (int j = 0; j < Rt; ++j) u[j] = fetch(u_tcoef, cOff + j);
+    for (int p = 0; p < 4; ++p) {
+      if (vw[p] <= 0.0) continue;
+      for (int q = 0; q < 4; ++q) {
+        if (lw[q] <= 0.0) continue;
+        int base = oG + (vi[p] * u_n + li[q]) * Rt;
+        float s = 0.0;
+        for (int j = 0; j < Rt; ++j) s += u[j] * fetch(u_tM, base + j);
+        val[p * 4 + q] = s;
+      }
+    }
+    return;
+  }
   float Y[4 * MAX_TR], MY[4 * MAX_TR];
   for (int q = 0; q < 4; ++q)
     for (int b = 0; b < Rl; ++b) Y[q * MAX_TR + b] = lw[q] > 0.0 ? fetch(light, oL + li[q] * Rl + b) : 0.0;

@@ -68,6 +68,9 @@ struct ObjectState {
   gl::Framebuffer fb;
   gl::Program program;
   std::string programError;
+  // The tensor decoder's tables on the GPU: "projected_cores" (G per cluster, view and light),
+  // "texel_matrices" (M per texel) or "coefficients" (neither fit).
+  std::string tensorTables;
   std::vector<std::unique_ptr<gl::TextureBuffer>> buffers;  // bound arrays of the decoder
   std::string bound;                                        // path of the bound file
   double frameMs = 0;  // GPU-inclusive time of the last object pass (rendered on change only)

@@ -461,6 +461,7 @@ bool App::scriptStep() {
            m_report["check_glsl"] = result;
            m_report["check_glsl_" + objectView().insp.cbtf->codec +
                     (objectView().insp.cbtf->levels.empty() ? "" : "_mip")] = result;
+           if (c.contains("name")) m_report["check_glsl_" + c["name"].get<std::string>()] = result;
            if (!ok) return fail("GLSL decoder differs from the CPU decoder: " + result.dump());
            return std::nullopt;
          }},

@@ -133,6 +133,43 @@ TEST(Studio, FlatLambertPreviewPixelIsTheAlbedo) {
   expectNotBlank(dir / "lambert.png");
 }
 
+// The tensor GLSL decoder's two table layouts against the CPU decoder: every cluster's projected
+// cores G (Rt products per value; when they fit in 16 M floats) and, when they do not (8
+// components in 4 clusters at 16×32 directions: 96 · 512² floats), the per-texel matrices M.
+TEST(Studio, TheTensorGlslDecoderMatchesTheCpuWithEitherTable) {
+  const auto dir = tempDir("ui_studio_tensor_tables");
+  const std::string raw = (dir / "b.btf").string(), g = (dir / "g.cbtf").string(),
+                    m = (dir / "m.cbtf").string();
+  std::string out;
+  ASSERT_EQ(runBtfsim("simulate " + sceneFile("brick") + " -o " + raw +
+                          " --texels 8 --dirs 16x32 --spp 1 -q",
+                      &out),
+            0)
+      << out;
+  ASSERT_EQ(runBtfsim("compress " + raw + " -o " + g + " --codec tensor -q", &out), 0) << out;
+  ASSERT_EQ(
+      runBtfsim("compress " + raw + " -o " + m + " --codec tensor --clusters 4 --components 8 -q",
+                &out),
+      0)
+      << out;
+  json a = json::array();
+  for (const auto& [file, name] : {std::pair{g, "g"}, std::pair{m, "m"}}) {
+    a.push_back({{"open_compressed", file}, {"reference", raw}});
+    a.push_back({{"check_glsl", {{"samples", 512}, {"tolerance", 2e-3}, {"name", name}}}});
+  }
+  a.push_back({{"report", (dir / "report.json").string()}});
+  std::string log;
+  ASSERT_EQ(runStudio(a, dir, &log), 0) << log;
+  for (const auto& [name, tables] :
+       {std::pair{"g", "projected_cores"}, std::pair{"m", "texel_matrices"}}) {
+    const json r = json::parse(readFile(dir / "report.json")).at("check_glsl_" + std::string(name));
+    EXPECT_EQ(r["tensor_tables"], tables) << r.dump();
+    EXPECT_EQ(r["samples"], 512);
+    EXPECT_GT(r["peak"].get<double>(), 0.01) << r.dump();
+    EXPECT_LE(r["max_rel_to_peak"].get<double>(), 2e-3) << r.dump();
+  }
+}
+
 TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   const auto dir = tempDir("ui_studio_jobs");
   const std::string out = (dir / "brick").string();
@@ -212,6 +249,8 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   EXPECT_LE(gm["max_lod_difference"].get<double>(), 1e-3) << gm.dump();
   EXPECT_LE(gm["max_rel_to_peak"].get<double>(), 2e-3) << gm.dump();
   EXPECT_LE(gt["max_rel_to_peak"].get<double>(), 2e-3) << gt.dump();
+  // The shader read every cluster's projected cores (Rt products per value), not the M path.
+  EXPECT_EQ(gt["tensor_tables"], "projected_cores") << gt.dump();
   const json g = r.at("check_glsl_nmf");
   EXPECT_EQ(g["samples"], 512);
   EXPECT_GT(g["peak"].get<double>(), 0.01);

@@ -61,6 +61,11 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
     // tensor: derived tables (offsets, per-texel matrices up to 64 MiB) beside the arrays.
     const TensorGpuTables tables =
         c.codec == "tensor" ? tensorGpuTables(c, uint64_t(16) << 20) : TensorGpuTables{};
+    o.tensorTables.clear();
+    if (c.codec == "tensor")
+      o.tensorTables = tables.projected                                  ? "projected_cores"
+                       : !tables.texels.empty() && tables.texels[2] >= 0 ? "texel_matrices"
+                                                                         : "coefficients";
     for (int ch = 0; ch < 3; ++ch) {
       if (c.codec == "nmf") {
         for (const char* w : {"basis_view", "basis_light", "coef_view", "coef_light"})
@@ -415,6 +420,7 @@ bool checkGlsl(const ObjectView& app, int samples, double tolerance, json* resul
              {"tolerance", tolerance},
              {"levels", filtered ? int(cb.levels.size()) : 1}};
   if (filtered) (*result)["max_lod_difference"] = lodDiff;
+  if (cb.codec == "tensor") (*result)["tensor_tables"] = app.obj.tensorTables;
   return rel <= tolerance && lodDiff <= 1e-3;
 }
 

@@ -168,13 +168,16 @@ std::unique_ptr<Decoder> makeDecoder(CompressedBtf c);
 
 /// What a GLSL tensor decoder needs beside the file's arrays (shaders/btf_decode.glsl), derived
 /// from them as the CPU decoder does: per texel (cluster, offset of its coefficients, offset of
-/// its Rv × Rl matrices in `matrices` or −1), per channel and cluster (Rv, Rl, Rt, offsets of the
-/// cluster's view, light and core blocks), and the per-texel matrices when they fit in
-/// maxMatrixFloats (and 2^24, the floats' exact integers); else `matrices` is empty.
+/// its Rv × Rl matrices in `matrices` or −1), per channel and cluster 7 floats (Rv, Rl, Rt, offsets
+/// of the cluster's view, light and core blocks, offset of its G block in `matrices` or −1).
+/// `matrices` holds, when they fit in maxMatrixFloats (and 2^24, the floats' exact integers),
+/// either the per-(cluster, view, light) projected cores G[(v·n + l)·Rt + j] = x_vᵀ core_j y_l
+/// (preferred: a value is Rt products) or else the per-texel matrices M; or nothing.
 struct TensorGpuTables {
   std::vector<float> texels;
   std::vector<float> clusters[3];
   std::vector<float> matrices;
+  bool projected = false;  // `matrices` holds the G blocks (else M per texel, or nothing)
 };
 TensorGpuTables tensorGpuTables(const CompressedBtf& c, uint64_t maxMatrixFloats);
 /// Opens a raw store or a compressed file (by magic bytes) behind the Decoder API.

@@ -780,8 +780,53 @@ class TensorDecoder final : public Decoder {
   TensorGpuTables gpuTables(uint64_t maxMatrixFloats) const {
     TensorGpuTables g;
     const int64_t T = m_info.texels();
+    // Per (channel, cluster, view, light) the core projected on both factor rows,
+    // G[(v·n + l)·Rt + j] = x_vᵀ core_j y_l: a value is then Rt products of the texel's
+    // coefficients (what the shader does when they fit, instead of Rv·Rl per texel matrix).
+    uint64_t gFloats = 0;
+    std::vector<int64_t> gOff[3];
+    for (int ch = 0; ch < 3; ++ch)
+      for (int k = 0; k < m_K; ++k) {
+        const Ranks& r = m_r[ch][size_t(k)];
+        gOff[ch].push_back(r.t > 0 ? int64_t(gFloats) : -1);
+        gFloats += uint64_t(m_n) * uint64_t(m_n) * uint64_t(r.t);
+      }
+    const bool withG = gFloats <= std::min<uint64_t>(maxMatrixFloats, uint64_t(1) << 24) &&
+                       m_texOffset.back() <= (int64_t(1) << 24);
+    g.projected = withG;
+    if (withG) {
+      g.matrices.assign(size_t(gFloats), 0.f);
+      parallelForChunks(int64_t(3) * m_K * m_n, 8, [&](int64_t b, int64_t e) {
+        std::vector<double> W;
+        for (int64_t i = b; i < e; ++i) {
+          const int ch = int(i / (int64_t(m_K) * m_n)), k = int(i / m_n % m_K), v = int(i % m_n);
+          const Ranks& r = m_r[ch][size_t(k)];
+          if (r.t == 0) continue;
+          const int64_t d = int64_t(r.v) * r.l;
+          const float* x = m_view[ch]->data.data() + m_offV[ch][size_t(k)] + int64_t(v) * r.v;
+          const float* core = m_core[ch]->data.data() + m_offC[ch][size_t(k)];
+          W.assign(size_t(r.t) * size_t(r.l), 0.0);  // xᵀ core_j, Rt × Rl
+          for (int j = 0; j < r.t; ++j)
+            for (int a = 0; a < r.v; ++a)
+              for (int q = 0; q < r.l; ++q)
+                W[size_t(j) * r.l + q] +=
+                    double(x[a]) * core[int64_t(j) * d + int64_t(a) * r.l + q];
+          for (int l = 0; l < m_n; ++l) {
+            const float* y = m_light[ch]->data.data() + m_offL[ch][size_t(k)] + int64_t(l) * r.l;
+            float* dst =
+                g.matrices.data() + gOff[ch][size_t(k)] + (int64_t(v) * m_n + l) * int64_t(r.t);
+            for (int j = 0; j < r.t; ++j) {
+              double acc = 0;
+              for (int q = 0; q < r.l; ++q) acc += W[size_t(j) * r.l + q] * double(y[q]);
+              dst[j] = float(acc);
+            }
+          }
+        }
+      });
+    }
     const uint64_t mFloats = uint64_t(m_texM.back());
-    const bool withM = mFloats <= std::min<uint64_t>(maxMatrixFloats, uint64_t(1) << 24) &&
+    const bool withM = !withG &&
+                       mFloats <= std::min<uint64_t>(maxMatrixFloats, uint64_t(1) << 24) &&
                        m_texOffset.back() <= (int64_t(1) << 24);
     std::vector<float> tmp;
     for (int64_t t = 0; t < T; ++t) {
@@ -797,7 +842,8 @@ class TensorDecoder final : public Decoder {
       for (int k = 0; k < m_K; ++k) {
         const Ranks& r = m_r[ch][size_t(k)];
         for (int64_t x : {int64_t(r.v), int64_t(r.l), int64_t(r.t), m_offV[ch][size_t(k)],
-                          m_offL[ch][size_t(k)], m_offC[ch][size_t(k)]})
+                          m_offL[ch][size_t(k)], m_offC[ch][size_t(k)],
+                          withG ? gOff[ch][size_t(k)] : int64_t(-1)})
           g.clusters[ch].push_back(float(x));
       }
     return g;
