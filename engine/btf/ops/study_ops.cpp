@@ -230,7 +230,7 @@ void study(const Call& c) {
   o.voxels = intList(r.s("network_voxels"), "--network-voxels", 0, 1024);
   o.gather = intList(r.s("gather"), "--gather", 1, 16);
   o.links = intList(r.s("links"), "--links", 1, 256);
-  o.bounces = intList(r.s("bounces"), "--bounces", 1, 64);
+  o.bounces = intList(r.s("bounces"), "--bounces", 0, 64);
   o.base = {o.methods[0], o.dirs[0],  o.spp[0],     o.shadows[0], o.voxels[0],
             o.gather[0],  o.links[0], o.bounces[0], o.paths[0]};
   if (o.paths.size() == 1 && o.methods.size() == 1) o.paths.clear();

@@ -44,8 +44,9 @@ std::string StudyConfig::label() const {
     return s.str();
   }
   s << dirs << (spp == 0 ? std::string(" adaptive") : " spp" + std::to_string(spp)) << " "
-    << shadowModeName(shadows) << " P" << bounces;
-  if (bounces > 1)
+    << shadowModeName(shadows) << " P"
+    << (bounces == 0 ? std::string("plan") : std::to_string(bounces));
+  if (bounces != 1)
     s << " vox" << (voxels ? std::to_string(voxels) : "auto") << " N1=" << gather << " links"
       << links;
   return s.str();
@@ -222,7 +223,10 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
       so.network.gather = c.gather;
       so.network.links = c.links;
       so.plan.selfShadowing = Toggle::On;
-      so.plan.interreflection = c.bounces > 1 ? Toggle::On : Toggle::Off;
+      // P = 0: what `simulate` does by default — the planner's effects, path length and tail.
+      so.plan.interreflection = c.bounces == 0  ? Toggle::Auto
+                                : c.bounces > 1 ? Toggle::On
+                                                : Toggle::Off;
       so.plan.bounces = c.bounces > 1 ? c.bounces : 0;
       StudyResult res;
       res.config = c;

@@ -22,7 +22,7 @@ struct StudyConfig {
   int voxels = 0;  // 0 = one per texel
   int gather = 4;
   int links = 16;
-  int bounces = 3;  // P; 1 = direct only
+  int bounces = 3;  // P; 1 = direct only; 0 = the planner's (as simulate by default)
   int paths = 1;    // pt only
   std::string label() const;
 };
