@@ -40,6 +40,9 @@ TEST(Study, OneKnobAtATimeAroundTheBase) {
   StudyConfig a;
   a.spp = 0;
   EXPECT_NE(a.label().find("adaptive"), std::string::npos) << a.label();
+  // P = 0 is the planner's own path length (what simulate does by default).
+  a.bounces = 0;
+  EXPECT_NE(a.label().find(" Pplan "), std::string::npos) << a.label();
 }
 
 TEST(Study, CommandWritesTableCsvAndPlot) {
@@ -48,13 +51,14 @@ TEST(Study, CommandWritesTableCsvAndPlot) {
   ASSERT_EQ(test::runBtfsim("study " + test::sourceDir() + "/resources/scenes/brick.json -o " +
                                 dir.string() +
                                 " --texels 8 --dirs bonn81 --spp 1 --shadows map "
-                                "--network-voxels 16 --gather 4 --links 8 --bounces 3,1 "
+                                "--network-voxels 16 --gather 4 --links 8 --bounces 3,1,0 "
                                 "--method network,pt --reference-spp 32 -q",
                             &out),
             0)
       << out;
   const std::string csv = test::readFile(dir / "study.csv");
-  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 4);  // header + 3 configurations
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 5);  // header + 4 configurations
+  EXPECT_NE(csv.find("Pplan"), std::string::npos);
   EXPECT_NE(csv.find("probe_rel_rmse"), std::string::npos);
   const std::string md = test::readFile(dir / "study.md");
   EXPECT_NE(md.find("| configuration |"), std::string::npos);
@@ -63,7 +67,7 @@ TEST(Study, CommandWritesTableCsvAndPlot) {
   EXPECT_EQ(svg.rfind("<svg", 0), 0u);
   EXPECT_NE(svg.find("</svg>"), std::string::npos);
   const std::string probes = test::readFile(dir / "probes.csv");
-  EXPECT_EQ(std::count(probes.begin(), probes.end(), '\n'), 1 + 3 * 28);
+  EXPECT_EQ(std::count(probes.begin(), probes.end(), '\n'), 1 + 4 * 28);
   EXPECT_EQ(csv.find("nan"), std::string::npos);
   EXPECT_EQ(test::runBtfsim("study " + test::sourceDir() + "/resources/scenes/brick.json -o " +
                                 dir.string() + " --spp 65",
