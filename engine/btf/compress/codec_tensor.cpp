@@ -19,6 +19,7 @@
 #include <btf/compress/halfway.h>
 #include <btf/compress/mip.h>
 #include <btf/core/error.h>
+#include <btf/core/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -422,6 +423,7 @@ class TensorEncoder final : public Encoder {
         energy > 0 ? std::sqrt(std::max(0.0, energy - proj) / energy) : 0.0;
     st["relative_rmse_estimate"] =
         energy > 0 ? std::sqrt(std::max(0.0, energy - kept) / energy) : 0.0;
+    if (!m_ratioLimit.empty()) st["ratio_limit"] = m_ratioLimit;
     out.statsJson = st.dump();
     return out;
   }
@@ -559,7 +561,10 @@ class TensorEncoder final : public Encoder {
         for (int mode = 0; mode < 3; ++mode) {
           const double g = gain(kc, mode), c = cost(kc, mode);
           if (!(g > 0) || (byRatio && c > budget)) continue;
-          if (mode < 2 && projectionAfter(kc, mode) > projectionFloats()) continue;
+          if (mode < 2 && projectionAfter(kc, mode) > projectionFloats()) {
+            m_projectionBound = true;
+            continue;
+          }
           if (g / c > best) best = g / c, bk = kc, bm = mode;
         }
       }
@@ -631,6 +636,28 @@ class TensorEncoder final : public Encoder {
       budget -= cost(bk);
       ++m_ranks[bk].t;
     }
+    // (Data coded to its float rounding has nothing left to spend bytes on.)
+    if (byRatio && budget > 0.1 * rawBytes() / m_s.targetRatio && err > 1e-9 * energy) {
+      // The ratio asked could not be spent: say which limits held the ranks.
+      int atT = 0, atV = 0, coded = 0;
+      for (size_t kc = 0; kc < KC; ++kc) {
+        if (m_ranks[kc].v == 0) continue;
+        ++coded;
+        atT += m_ranks[kc].t >= cap(kc);
+        atV += m_ranks[kc].v >= std::min(kMaxRv, m_n) && m_ranks[kc].l >= std::min(kMaxRl, m_n);
+      }
+      m_ratioLimit = format(
+          "%.0f %% of the bytes unspent: %d of %d (cluster, channel) texel ranks at their cap "
+          "(≤ %d, ≤ Rv·Rl, ≤ its texels), %d at the view/light caps (%d)%s; %d clusters from %zu "
+          "training texels — more clusters spend more (--clusters K with --train-texels ≥ 16·K)",
+          100 * budget / (rawBytes() / m_s.targetRatio), atT, coded, kMaxRt, atV, kMaxRv,
+          m_projectionBound ? format(", view/light growth held by the projections' memory bound "
+                                     "(Σ Rv·Rl ≤ %lld floats per texel)",
+                                     (long long)projectionFloats())
+                                  .c_str()
+                            : "",
+          m_K, m_train.size());
+    }
   }
 
   CodecSettings m_s;
@@ -653,6 +680,8 @@ class TensorEncoder final : public Encoder {
   int m_reseeds = 0;
   double m_trainRel = 0;
   bool m_trained = false;
+  bool m_projectionBound = false;      // the projections' memory held a view/light rank
+  std::string m_ratioLimit;            // why the ratio asked was not reached (empty: it was)
   std::unique_ptr<HalfwayMap> m_half;  // --halfway
 };
 

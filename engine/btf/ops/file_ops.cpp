@@ -19,6 +19,10 @@ namespace btf::ops::detail {
 
 void warnTarget(const Call& c, const CompressedBtf& b) {
   const json params = json::parse(b.paramsJson), stats = json::parse(b.statsJson);
+  if (stats.contains("ratio_limit") && stats["ratio_limit"].is_string())
+    c.warn(format("ratio 1:%.0f instead of the 1:%.0f asked: %s", b.ratio(),
+                  params.value("target_ratio", 0.0),
+                  stats["ratio_limit"].get<std::string>().c_str()));
   const double target = params.value("target_ratio", 0.0) > 0  ? 0.0
                         : params.value("target_rmse", 0.0) > 0 ? params.value("target_rmse", 0.0)
                                                                : 0.05;
@@ -128,8 +132,8 @@ void compress(const Call& c) {
   const CompressedBtf b = compressStore(r.s("input"), cs, c.progress(), c.ctx.cancel, &rep, &comm);
   json& j = c.rep.json;
   if (comm.distributed()) {
-    j["cluster"] =
-        clusterJson(comm, double(rep.texelsEncoded), rep.texelBytes, rep.commBytes, rep.encodeSeconds);
+    j["cluster"] = clusterJson(comm, double(rep.texelsEncoded), rep.texelBytes, rep.commBytes,
+                               rep.encodeSeconds);
     if (!comm.root()) return;  // rank 0 writes and reports
   }
   c.ctx.check("encoder");

@@ -259,3 +259,31 @@ TEST(Tensor, AnAllZeroBtfCodesNothingAndDecodesZeros) {
     }
   }
 }
+
+TEST(Tensor, ARatioItsCapsCannotSpendIsReportedWithTheLimits) {
+  // 6 × 4 texels of 32 directions, uniform noise (full rank): at 1:1.1 the ranks reach
+  // their caps (every mode full) long before the raw bytes are spent; at 1:20 the bytes are
+  // spent.
+  const BtfInfo info = syntheticInfo(6, 4, "4x8");
+  const auto dir = tempDir("tensor_ratio_limit");
+  Rng rng(5);
+  std::vector<float> noise(size_t(info.texels()) * info.nDirs() * info.nDirs() * 3);
+  for (float& x : noise) x = float(rng.uniformDouble());
+  const std::string raw = writeRaw((dir / "a.btf").string(), info, noise);
+  CodecSettings s;
+  s.codec = "tensor";
+  s.targetRatio = 1.1;
+  const CompressedBtf loose = compressStore(raw, s, false, nullptr, nullptr);
+  const auto st = nlohmann::json::parse(loose.statsJson);
+  ASSERT_TRUE(st.contains("ratio_limit")) << loose.statsJson;
+  EXPECT_GT(loose.ratio(), 1.1 * 1.1);
+  const std::string why = st["ratio_limit"];
+  EXPECT_NE(why.find("texel ranks at their cap"), std::string::npos) << why;
+  EXPECT_NE(why.find("--clusters"), std::string::npos) << why;
+  s.targetRatio = 20;
+  const CompressedBtf tight = compressStore(raw, s, false, nullptr, nullptr);
+  EXPECT_FALSE(nlohmann::json::parse(tight.statsJson).contains("ratio_limit")) << tight.statsJson;
+  // At least the ratio asked (the header's reserve makes a tile this small land above it).
+  EXPECT_GE(tight.ratio(), 20);
+  EXPECT_LT(tight.ratio(), 30);
+}
