@@ -117,6 +117,9 @@ Opts effectOptions() {
          "network density, voxels per side (0 = one per texel, at least 32, at most 128)"),
       in("links", 16, 1, 256, "network links per point"),
       in("gather", 4, 1, 16, "N1: network points per direct hit"),
+      in("gather_occlusion", 16, 0, 1024,
+         "rays per gathered hit measuring its own occluded fraction; the network's irradiance "
+         "is scaled by it over the points' (0 = off)"),
       in("paths", 16, 1, 4096, "--method pt: paths per texel sample"),
   };
 }

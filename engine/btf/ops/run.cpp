@@ -124,6 +124,7 @@ SimOptions simOptions(const Scene& scene, const Request& r) {
     if (voxels != 0) o.network.voxels = voxels;
     o.network.links = r.i("links");
     o.network.gather = r.i("gather");
+    o.network.gatherOcclusion = r.i("gather_occlusion");
     o.ptPaths = r.i("paths");
   }
   if (r.has("chunk_texels")) o.maxChunkTexels = r.i("chunk_texels");

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 namespace btf {
 
@@ -108,6 +109,8 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
   if (s.alphaDirections < 16 || s.alphaDirections > 4096)
     throw Error("network visibility directions must be 16..4096");
   if (s.gather < 1 || s.gather > 16) throw Error("network gather points (N1) must be 1..16");
+  if (s.gatherOcclusion < 0 || s.gatherOcclusion > 1024)
+    throw Error("network gather occlusion rays must be 0..1024");
   m_settings = s;
   const TileGeometry& g = tracer.geometry();
   m_Lx = g.Lx;
@@ -508,6 +511,15 @@ void NetworkGather::add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t 
   const Material& m = m_materials[m_geom.triMaterial[prim]];
   const int nL = m_light.lights();
   const Rgb kd = m.kdOverPi * weight;
+  // E ≈ π α L̄: the hit's own occluded fraction, the occluders' mean radiance from the points.
+  float ax = -1;
+  if (m_alphaRays > 0) {
+    ax = occlusion(p, ng);
+    for (int i = 0; i < n; ++i) {
+      const float aq = m_net.points()[idx[i]].alpha;
+      w[i] *= aq > 1e-3f ? std::min(ax / aq, 4.0f) : 1.0f;
+    }
+  }
   for (int i = 0; i < n; ++i) {
     const float* E = m_light.irradiance(idx[i]);
     const float a = kd.x * w[i], b = kd.y * w[i], c = kd.z * w[i];
@@ -525,7 +537,7 @@ void NetworkGather::add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t 
     const NetworkPoint& q = m_net.points()[idx[0]];
     const uint32_t nLinks = q.linkEnd - q.linkBegin;
     if (nLinks == 0) return;
-    const float g = q.alpha * kPiF / float(nLinks) * weight;
+    const float g = (ax >= 0 ? ax : q.alpha) * kPiF / float(nLinks) * weight;
     for (uint32_t e = q.linkBegin; e < q.linkEnd; ++e) {
       const Rgb f = evalGlossy(m, fr.toLocal(m_net.links()[e].dir), woL) * g;
       if (!(f.x > 0 || f.y > 0 || f.z > 0)) continue;
@@ -556,6 +568,29 @@ void NetworkGather::add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t 
     out[3 * l + 1] += f.y * E.y;
     out[3 * l + 2] += f.z * E.z;
   }
+}
+
+float NetworkGather::occlusion(const Vec3& p, const Vec3& ng) const {
+  BTF_CHECK(m_tracer && m_alphaRays > 0);
+  const Frame fr = Frame::fromNormal(ng);
+  const DVec3 origin = DVec3(p) + m_tracer->epsilon() * DVec3(ng);
+  const int side = std::max(1, int(std::lround(std::sqrt(double(m_alphaRays)))));
+  uint64_t key = 0;
+  std::memcpy(&key, &p.x, 4);
+  uint32_t yz[2];
+  std::memcpy(&yz[0], &p.y, 4);
+  std::memcpy(&yz[1], &p.z, 4);
+  int hits = 0;
+  for (int a = 0; a < side; ++a)
+    for (int c = 0; c < side; ++c) {
+      const uint64_t h =
+          hashKeys(key ^ 0x0cc1, (uint64_t(yz[0]) << 32) | yz[1], uint64_t(a * side + c));
+      const float u1 = (a + uniformFloat(h)) / side, u2 = (c + uniformFloat(mix64(h))) / side;
+      const float r = std::sqrt(u1), phi = 2 * kPiF * u2;
+      const Vec3 dl(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.f, 1 - u1)));
+      hits += m_tracer->occluded(origin, glm::normalize(DVec3(fr.toWorld(dl))));
+    }
+  return float(hits) / float(side * side);
 }
 
 const char* glossyGatherName(GlossyGather g) {

@@ -41,6 +41,9 @@ struct NetworkSettings {
   int alphaDirections = 256;
   int links = 16;  // links per network point
   int gather = 4;  // N1: network points per direct hit
+  /// Rays per gathered hit measuring its own occluded fraction α(x): the network's irradiance
+  /// is scaled by α(x)/α(point) (0: off). See NetworkGather.
+  int gatherOcclusion = 16;
   uint64_t seed = 1;
 };
 
@@ -152,17 +155,35 @@ class NetworkLighting {
 };
 
 /// The final gather of the indirect term for the direct hits of a view.
+//
+// The network is coarser than the relief it lights (a point per voxel; the noise terrain's bumps
+// are a fraction of one), so a hit's nearest points may sit in a hollow while the hit is on a
+// crest. E ≈ π α L̄ (occluded fraction × mean radiance of the occluders): with `tracer` and
+// NetworkSettings::gatherOcclusion > 0, each hit measures its own α(x) with that many stratified
+// cosine-weighted rays (seeded by its position: deterministic) and takes each point's
+// irradiance times α(x)/α(point) (at most 4×), the occluders' radiance from the network.
 class NetworkGather {
  public:
   NetworkGather(const PointNetwork& net, const NetworkLighting& light, const TileGeometry& geom,
-                const std::vector<Material>& materials)
-      : m_net(net), m_light(light), m_geom(geom), m_materials(materials) {}
+                const std::vector<Material>& materials, const PeriodicTracer* tracer = nullptr)
+      : m_tracer(tracer),
+        m_alphaRays(tracer ? net.settings().gatherOcclusion : 0),
+        m_net(net),
+        m_light(light),
+        m_geom(geom),
+        m_materials(materials) {}
   /// Adds weight × the indirect aBRDF of every light to out[l * 3 + c] for the hit at p on
   /// triangle prim (normals ng, ns facing the viewer), seen from direction wo (world, unit).
   void add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t prim, const Vec3& wo,
            float weight, float* out) const;
+  /// The cosine-weighted occluded fraction of the hemisphere around ng at p, from the
+  /// settings' rays (deterministic per position); needs the tracer.
+  float occlusion(const Vec3& p, const Vec3& ng) const;
+  bool occlusionCorrected() const { return m_alphaRays > 0; }
 
  private:
+  const PeriodicTracer* m_tracer = nullptr;
+  int m_alphaRays = 0;
   const PointNetwork& m_net;
   const NetworkLighting& m_light;
   const TileGeometry& m_geom;

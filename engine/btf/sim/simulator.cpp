@@ -209,6 +209,7 @@ BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
     plan["network"]["alpha_directions"] = n.alphaDirections;
     plan["network"]["links"] = n.links;
     plan["network"]["gather"] = n.gather;
+    plan["network"]["gather_occlusion_rays"] = n.gatherOcclusion;
     plan["network"]["glossy_gather"] = glossyGatherName(glossyGather());
     plan["network"]["points"] = m_network->points().size();
     plan["network"]["link_count"] = m_network->links().size();
@@ -528,7 +529,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     });
     checkCancel();
     const double perLight = (light.solveSeconds() - light.setupSeconds()) / nCal;
-    NetworkGather gather(*m_network, light, m_geom, m_materials);
+    NetworkGather gather(*m_network, light, m_geom, m_materials, m_tracer.get());
     const double withGather = timeKernel(mode, &gather, false, m_opt.grazingRays);
     const double lightSeconds = light.setupSeconds() + perLight * nD / threads;
     const double gatherSeconds =
@@ -545,7 +546,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
             P, GlossyGather::MeanDirection, nullptr, m_cancel, nCal);
       });
       checkCancel();
-      NetworkGather gg(*m_network, lg, m_geom, m_materials);
+      NetworkGather gg(*m_network, lg, m_geom, m_materials, m_tracer.get());
       const double withGlossy = timeKernel(mode, &gg, false, m_opt.grazingRays);
       plm.find("glossy_indirect")->secondsSaved =
           units * double(nD) * std::max(0.0, withGlossy - withGather) / threads;
@@ -659,7 +660,8 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
         pl.bounces, glossyGather(), &pr, cancel);
     pr.finish();
     r.lightSeconds = lighting.solveSeconds();
-    gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
+    gather =
+        std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials, m_tracer.get());
     throwIfCancelled(cancel, "network light");
   }
   TexelKernel kernel{*m_tracer, m_materials, m_dirs, maps, direct, gather.get(),
@@ -965,7 +967,8 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
         },
         pl->bounces, glossy, nullptr, cancel);
     throwIfCancelled(cancel, "preview");
-    gather = std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials);
+    gather =
+        std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials, m_tracer.get());
   }
   TexelKernel kernel{*m_tracer,      m_materials, pair, maps, direct, gather.get(),
                      pt && indirect, nullptr,     {},   1,    {}};
