@@ -152,6 +152,32 @@ TEST(Network, ZeroAlbedoGivesExactlyZeroIndirect) {
   EXPECT_EQ(nonzero, 0u);
 }
 
+// Every lStep-th light × vStep-th view of the set below maxThetaDeg, and the path tracer's
+// tile-averaged aBRDF there with paths of at most P and of 1 bounce (the same paths: their
+// first hits agree).
+struct ProbePairs {
+  std::vector<DirectionPair> pairs;
+  std::vector<std::pair<int, int>> idx;  // (view, light)
+  std::vector<Rgb> ref, ref1;
+};
+ProbePairs pathTracedPairs(const SimulationJob& job, int lStep, int vStep, double maxThetaDeg,
+                           int P, int spp) {
+  const DirectionSet& d = job.directions();
+  ProbePairs r;
+  for (int l = 0; l < d.size(); l += lStep)
+    for (int v = 0; v < d.size(); v += vStep)
+      if (d[l].theta < deg2rad(maxThetaDeg) && d[v].theta < deg2rad(maxThetaDeg)) {
+        r.pairs.push_back({d[l].w, d[v].w});
+        r.idx.push_back({v, l});
+      }
+  PathSettings ps;
+  ps.maxBounces = P;
+  r.ref = pathTracedBrdf(job.tracer(), job.materials(), r.pairs, spp, 1, ps);
+  ps.maxBounces = 1;
+  r.ref1 = pathTracedBrdf(job.tracer(), job.materials(), r.pairs, spp, 1, ps);
+  return r;
+}
+
 TEST(Network, AgreesWithPathTracerOnVGroovesSineAndBrick) {
   struct Case {
     const char* name;
@@ -167,21 +193,8 @@ TEST(Network, AgreesWithPathTracerOnVGroovesSineAndBrick) {
     SCOPED_TRACE(c.name);
     std::unique_ptr<SimulationJob> job;
     const SimRun r = simulate(c.s, opts(32, "bonn81", 2, 4), &job);
-    const DirectionSet& d = job->directions();
-    std::vector<DirectionPair> pairs;
-    std::vector<std::pair<int, int>> idx;
-    for (int l = 0; l < d.size(); l += 7)
-      for (int v = 0; v < d.size(); v += 5)
-        if (d[l].theta < deg2rad(76) && d[v].theta < deg2rad(76)) {
-          pairs.push_back({d[l].w, d[v].w});
-          idx.push_back({v, l});
-        }
-    PathSettings ps;
-    ps.maxBounces = 4;
-    const auto ref = pathTracedBrdf(job->tracer(), job->materials(), pairs, 64, 1, ps);
-    PathSettings p1 = ps;
-    p1.maxBounces = 1;
-    const auto ref1 = pathTracedBrdf(job->tracer(), job->materials(), pairs, 64, 1, p1);
+    const ProbePairs pp = pathTracedPairs(*job, 7, 5, 76, 4, 64);
+    const auto& [pairs, idx, ref, ref1] = pp;
     double err = 0, norm = 0, gi = 0;
     for (size_t k = 0; k < pairs.size(); ++k) {
       const Rgb x = r.at(idx[k].first, idx[k].second), y = ref[k];
@@ -208,7 +221,6 @@ TEST(Network, OcclusionCorrectedGatherFollowsReliefFinerThanTheNetwork) {
   SimOptions o = opts(16, "4x8", 2, 2);
   std::unique_ptr<SimulationJob> job;
   const SimRun on = simulate(s, o, &job);
-  const DirectionSet& d = job->directions();
   SimOptions off = o;
   off.network.gatherOcclusion = 0;
   const SimRun plain = simulate(s, off);
@@ -216,19 +228,8 @@ TEST(Network, OcclusionCorrectedGatherFollowsReliefFinerThanTheNetwork) {
   direct.plan.interreflection = Toggle::Off;
   direct.plan.bounces = 0;
   const SimRun dir = simulate(s, direct);
-  std::vector<DirectionPair> pairs;
-  std::vector<std::pair<int, int>> idx;
-  for (int l = 0; l < d.size(); l += 3)
-    for (int v = 0; v < d.size(); v += 5) {
-      pairs.push_back({d[l].w, d[v].w});
-      idx.push_back({v, l});
-    }
-  PathSettings ps;
-  ps.maxBounces = 2;
-  const auto ref = pathTracedBrdf(job->tracer(), job->materials(), pairs, 96, 1, ps);
-  PathSettings p1 = ps;
-  p1.maxBounces = 1;
-  const auto ref1 = pathTracedBrdf(job->tracer(), job->materials(), pairs, 96, 1, p1);
+  const ProbePairs pp = pathTracedPairs(*job, 3, 5, 90, 2, 96);
+  const auto& [pairs, idx, ref, ref1] = pp;
   // Error of the indirect term alone: (run − its direct) against the path tracer's (P = 2 − 1,
   // the same paths: their first hits cancel).
   double eOn = 0, ePlain = 0, norm = 0;
@@ -496,7 +497,9 @@ TEST(Planner, BounceCountFromTheEnergyBound) {
   const double q = a.plan.energyBound;
   const int K = a.plan.bounces - 1;
   EXPECT_LE(std::pow(q, K + 1) / (1 - q), o.plan.epsilon);
-  if (a.plan.closedFormTail) EXPECT_GE(a.plan.bounces, 4);
+  if (a.plan.closedFormTail) {
+    EXPECT_GE(a.plan.bounces, 4);
+  }
   const bool raised = a.plan.closedFormTail && K == 3 && std::pow(q, 3) / (1 - q) <= o.plan.epsilon;
   const int chosen = raised ? 2 : K;
   if (chosen > 1) {
