@@ -650,7 +650,8 @@ class TensorEncoder final : public Encoder {
           "%.0f %% of the bytes unspent: %d of %d (cluster, channel) texel ranks at their cap "
           "(≤ %d, ≤ Rv·Rl, ≤ its texels), %d at the view/light caps (%d)%s; %d clusters from %zu "
           "training texels — more clusters spend more (--clusters K with --train-texels ≥ 16·K)",
-          100 * budget / (rawBytes() / m_s.targetRatio), atT, coded, kMaxRt, atV, kMaxRv,
+          100 * budget / (rawBytes() / m_s.targetRatio), atT, coded, kMaxRt, atV,
+          std::min(kMaxRv, m_n),
           m_projectionBound ? format(", view/light growth held by the projections' memory bound "
                                      "(Σ Rv·Rl ≤ %lld floats per texel)",
                                      (long long)projectionFloats())

@@ -20,7 +20,7 @@ namespace btf::ops::detail {
 void warnTarget(const Call& c, const CompressedBtf& b) {
   const json params = json::parse(b.paramsJson), stats = json::parse(b.statsJson);
   if (stats.contains("ratio_limit") && stats["ratio_limit"].is_string())
-    c.warn(format("ratio 1:%.0f instead of the 1:%.0f asked: %s", b.ratio(),
+    c.warn(format("ratio 1:%.0f instead of the 1:%g asked: %s", b.ratio(),
                   params.value("target_ratio", 0.0),
                   stats["ratio_limit"].get<std::string>().c_str()));
   const double target = params.value("target_ratio", 0.0) > 0  ? 0.0

@@ -72,6 +72,26 @@ TEST(BtfsimCompress, StreamedSimulationEqualsCompressingTheStoredBtf) {
   EXPECT_EQ(std::filesystem::file_size(dir / "a.binary"), 34992012u);
 }
 
+TEST(BtfsimCompress, ARatioTheCodecCannotSpendIsAWarningNamingItsLimits) {
+  // 12² texels of 32 directions at 1:1.1: every rank reaches its cap long before the bytes are
+  // spent; the file is written and the warning says what held it, even with -q.
+  const auto dir = test::tempDir("cli_ratio_limit");
+  const std::string raw = (dir / "a.btf").string();
+  std::string out;
+  ASSERT_EQ(test::runBtfsim(
+                "simulate " + scenePath("bumps") + " --texels 12 --dirs 4x8 -q -o " + raw, &out),
+            0)
+      << out;
+  ASSERT_EQ(test::runBtfsim("compress " + raw + " -o " + (dir / "a.cbtf").string() +
+                                " --codec tensor --target-ratio 1.1 -q",
+                            &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("warning: ratio 1:2 instead of the 1:1.1 asked"), std::string::npos) << out;
+  EXPECT_NE(out.find("texel ranks at their cap"), std::string::npos) << out;
+  EXPECT_NE(out.find("at the view/light caps (32)"), std::string::npos) << out;
+}
+
 TEST(BtfsimCompress, BadInputsAreClearErrors) {
   const auto dir = test::tempDir("cli_compress_err");
   std::string out;
