@@ -13,6 +13,18 @@ namespace btf {
 
 namespace {
 using Clock = std::chrono::steady_clock;
+// Direction (a, c) of a side × side stratified cosine-weighted set around the z axis, jittered
+// by the hash h.
+Vec3 stratifiedCosine(int a, int c, int side, uint64_t h) {
+  const float u1 = (a + uniformFloat(h)) / side, u2 = (c + uniformFloat(mix64(h))) / side;
+  const float r = std::sqrt(u1), phi = 2 * kPiF * u2;
+  return Vec3(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.f, 1 - u1)));
+}
+uint32_t floatBits(float x) {
+  uint32_t b;
+  std::memcpy(&b, &x, 4);
+  return b;
+}
 double since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
@@ -237,10 +249,7 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
     for (int a = 0; a < side; ++a)
       for (int c = 0; c < side; ++c) {
         const uint64_t h = hashKeys(s.seed ^ 0xa1fa, uint64_t(i), uint64_t(a * side + c));
-        const float u1 = (a + uniformFloat(h)) / side, u2 = (c + uniformFloat(mix64(h))) / side;
-        const float r = std::sqrt(u1), phi = 2 * kPiF * u2;
-        const Vec3 dl(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.f, 1 - u1)));
-        const DVec3 d = glm::normalize(DVec3(fr.toWorld(dl)));
+        const DVec3 d = glm::normalize(DVec3(fr.toWorld(stratifiedCosine(a, c, side, h))));
         const RayHit hit = tracer.intersect(origin, d);
         if (!hit.hit()) continue;
         back += glm::dot(g.faceNormal(hit.prim), Vec3(d)) > 0;
@@ -575,20 +584,15 @@ float NetworkGather::occlusion(const Vec3& p, const Vec3& ng) const {
   const Frame fr = Frame::fromNormal(ng);
   const DVec3 origin = DVec3(p) + m_tracer->epsilon() * DVec3(ng);
   const int side = std::max(1, int(std::lround(std::sqrt(double(m_alphaRays)))));
-  uint64_t key = 0;
-  std::memcpy(&key, &p.x, 4);
-  uint32_t yz[2];
-  std::memcpy(&yz[0], &p.y, 4);
-  std::memcpy(&yz[1], &p.z, 4);
+  // Seeded by the hit's position: the same rays for any thread, chunk or rank.
+  const uint64_t kx = uint64_t(floatBits(p.x)) ^ 0x0cc1,
+                 kyz = (uint64_t(floatBits(p.y)) << 32) | floatBits(p.z);
   int hits = 0;
   for (int a = 0; a < side; ++a)
     for (int c = 0; c < side; ++c) {
-      const uint64_t h =
-          hashKeys(key ^ 0x0cc1, (uint64_t(yz[0]) << 32) | yz[1], uint64_t(a * side + c));
-      const float u1 = (a + uniformFloat(h)) / side, u2 = (c + uniformFloat(mix64(h))) / side;
-      const float r = std::sqrt(u1), phi = 2 * kPiF * u2;
-      const Vec3 dl(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.f, 1 - u1)));
-      hits += m_tracer->occluded(origin, glm::normalize(DVec3(fr.toWorld(dl))));
+      const uint64_t h = hashKeys(kx, kyz, uint64_t(a * side + c));
+      hits += m_tracer->occluded(
+          origin, glm::normalize(DVec3(fr.toWorld(stratifiedCosine(a, c, side, h)))));
     }
   return float(hits) / float(side * side);
 }

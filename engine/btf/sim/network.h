@@ -179,7 +179,6 @@ class NetworkGather {
   /// The cosine-weighted occluded fraction of the hemisphere around ng at p, from the
   /// settings' rays (deterministic per position); needs the tracer.
   float occlusion(const Vec3& p, const Vec3& ng) const;
-  bool occlusionCorrected() const { return m_alphaRays > 0; }
 
  private:
   const PeriodicTracer* m_tracer = nullptr;
