@@ -96,7 +96,7 @@ struct Scratch {
   std::vector<uint8_t> cellReal, nextReal, split, made, kept, hot;
   std::vector<int> samplesUsed, finalLevel, keep;
   std::vector<float> err;        // per light: error estimate of its last level
-  std::vector<uint8_t> flagged;  // per light: a shadow edge lies in its footprint
+  std::vector<uint8_t> flagged;  // per light: the quadrants whose footprint holds a shadow edge
   std::vector<int> active, next;
 };
 
@@ -207,10 +207,12 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     edge = m_maps.edgeCount(view, i * Km - 1, (i + 1) * Km + 1, j * Km - 1, (j + 1) * Km + 1) > 0;
 
   // Shadow boundaries: a light whose hit map (= its shadow map) has a discontinuity inside the
-  // footprint of a quadrant of the texel — the quadrant swept along −ωi over the heights of its
-  // receivers, widened by a map sample — is flagged: shaded with exact shadow rays (map mode
-  // too: the map places a boundary only within ±½ map sample); with edge_cells its cells whose
-  // own footprint holds the edge split.
+  // footprint of a quadrant of the texel — the receivers of the quadrant swept along −ωi to
+  // the light's map, widened by a map sample — is flagged for that quadrant: the quadrant
+  // splits to the map's level, its cells whose own footprint holds the edge split once more
+  // (a sliver of light or shadow that every sample of the cell missed would otherwise bias the
+  // texel), and samples the map cannot decide (its taps disagree) take an exact shadow ray:
+  // the map places a boundary only within ±½ map sample.
   int okCount = 0;
   for (const Sample& S : map) okCount += S.ok;
   // Heights of the receivers of cell (c, r) of a level with K ≤ Km cells per side.
@@ -237,19 +239,30 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     return m_maps.edgeCount(d, int(std::floor(a0)), int(std::ceil(a1)), int(std::floor(b0)),
                             int(std::ceil(b1))) > 0;
   };
+  // A receiver seen through plane point x at height z lies at x + z·sv (sv: the view's slope,
+  // ω.xy / ω.z); light l's map holds it at x + z·(sv − sl). In map samples per unit height:
+  const float vsx = m_slopeX[size_t(view)], vsy = m_slopeY[size_t(view)];
+  auto lightSlopeX = [&](int l) { return (m_slopeX[size_t(l)] - vsx) * m_toSampleX; };
+  auto lightSlopeY = [&](int l) { return (m_slopeY[size_t(l)] - vsy) * m_toSampleY; };
   sc.flagged.assign(size_t(nL), 0);
   float qlo[4], qhi[4];
   bool qok[4];
   for (int q = 0; q < 4; ++q) qok[q] = zRange(2, q & 1, q >> 1, &qlo[q], &qhi[q]);
+  float tlo = INFINITY, thi = -INFINITY;
+  for (int q = 0; q < 4; ++q)
+    if (qok[q]) tlo = std::min(tlo, qlo[q]), thi = std::max(thi, qhi[q]);
   for (int l = 0; l < nL && m_shadowEdges && okCount; ++l) {
-    const float sx = m_slopeX[size_t(l)] * m_toSampleX, sy = m_slopeY[size_t(l)] * m_toSampleY;
-    for (int q = 0; q < 4 && !sc.flagged[size_t(l)]; ++q)
-      sc.flagged[size_t(l)] =
-          qok[q] && edgesIn(l, 0.5f * float(q & 1), 0.5f * float((q & 1) + 1), 0.5f * float(q >> 1),
-                            0.5f * float((q >> 1) + 1), sx, sy, qlo[q], qhi[q]);
+    const float sx = lightSlopeX(l), sy = lightSlopeY(l);
+    // The whole texel first: most lights have no edge near it.
+    if (!edgesIn(l, 0.0f, 1.0f, 0.0f, 1.0f, sx, sy, tlo, thi)) continue;
+    for (int q = 0; q < 4; ++q)
+      if (qok[q] && edgesIn(l, 0.5f * float(q & 1), 0.5f * float((q & 1) + 1), 0.5f * float(q >> 1),
+                            0.5f * float((q >> 1) + 1), sx, sy, qlo[q], qhi[q]))
+        sc.flagged[size_t(l)] |= uint8_t(1u << q);
   }
 
-  // A sample's contribution for light l (flagged lights: exact shadow rays).
+  // A sample's contribution for light l (flagged lights: exact shadow rays where the map's taps
+  // disagree).
   auto contrib = [&](const Sample& S, int l) -> Rgb {
     return m_direct.contribution(S.s, l, sc.flagged[size_t(l)] != 0);
   };
@@ -318,14 +331,15 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       if (L == m_maxLevel) continue;
       const float thr = threshold(mean);
       const bool byValue = e > thr;
-      const bool flaggedL = sc.flagged[size_t(l)] != 0;
-      // Level 0 → the map's level is free of camera rays: a geometric edge of the texel or a
-      // shadow edge in the light's footprint takes every cell there. With edge_cells, the
-      // cells at the map's level whose own footprint holds the edge split too: slivers that
-      // every map sample missed (exact area fractions; +50 % time on brick).
+      const unsigned flags = sc.flagged[size_t(l)];
+      // Level 0 → the map's level is free of camera rays: a geometric edge of the texel takes
+      // every cell there, a shadow edge the cells of its quadrants. At the map's level the cells
+      // of a flagged quadrant whose own footprint holds the shadow edge split; with edge_cells
+      // also those holding a geometric edge: slivers every map sample missed (exact area
+      // fractions).
       const bool byEdges =
-          (L == 0 && (edge || flaggedL)) ||
-          (m_settings.edgeCells && L <= m_mapLevel && (flaggedL || (edge && byValue)));
+          (L == 0 && (edge || flags)) ||
+          (L <= m_mapLevel && (flags || (m_settings.edgeCells && edge && byValue)));
       if (!byValue && !byEdges) continue;
       uint8_t* sp = &sc.split[size_t(a) * n];
       bool any = false;
@@ -350,14 +364,16 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
             s = sc.hot[size_t(k)] || (c > 0 && sc.hot[size_t(k - 1)]) ||
                 (c + 1 < K && sc.hot[size_t(k + 1)]) || (r > 0 && sc.hot[size_t(k - K)]) ||
                 (r + 1 < K && sc.hot[size_t(k + K)]);
-          if (!s && byEdges && L == 0) s = true;
-          if (!s && byEdges) {
+          // The cell's quadrant (level 0: the cell itself).
+          const unsigned quadrant = 1u << ((c * 2 / K) + 2 * (r * 2 / K));
+          if (!s && byEdges && L == 0) s = edge || (flags & quadrant);
+          if (!s && byEdges && L > 0) {
             const float x0 = c * inv, x1 = (c + 1) * inv, y0 = r * inv, y1 = (r + 1) * inv;
             float zl, zh;
-            s = (edge && byValue && edgesIn(view, x0, x1, y0, y1, 0, 0, 0, 0)) ||
-                (sc.flagged[size_t(l)] && zRange(K, c, r, &zl, &zh) &&
-                 edgesIn(l, x0, x1, y0, y1, m_slopeX[size_t(l)] * m_toSampleX,
-                         m_slopeY[size_t(l)] * m_toSampleY, zl, zh));
+            s = (m_settings.edgeCells && edge && byValue &&
+                 edgesIn(view, x0, x1, y0, y1, 0, 0, 0, 0)) ||
+                ((flags & quadrant) && zRange(K, c, r, &zl, &zh) &&
+                 edgesIn(l, x0, x1, y0, y1, lightSlopeX(l), lightSlopeY(l), zl, zh));
           }
           sp[k] = s;
           any = any || s;

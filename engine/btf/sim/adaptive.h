@@ -5,12 +5,14 @@
 // (texel, view) refines its own cells:
 //  - level 0 (2×2) and the hit map's own level (4×4 when the budget allows) cost no camera ray;
 //  - a geometric edge of the texel (between neighbouring map samples, or in the view's edge
-//    table) or a shadow edge in the light's footprint (its edge table; the light then uses exact
-//    shadow rays) takes the light to the map's level;
+//    table) takes the light to the map's level; a shadow edge in the footprint of a quadrant
+//    (the light's edge table where its map holds the quadrant's receivers) takes that quadrant
+//    there, and its map-level cells whose own footprint holds the edge one level further; the
+//    light's samples then take exact shadow rays where the shadow map's taps disagree;
 //  - beyond, while the light's error estimate (from neighbouring-cell differences) exceeds
 //    tolerance × max(value, floor), the cells that differ from a neighbour, and their four
 //    neighbours, split; finer cells trace camera rays once per (texel, view), shared by every
-//    light; `edgeCells` also splits the map-level cells whose footprint holds an edge.
+//    light; `edgeCells` also splits the map-level cells whose footprint holds a geometric edge.
 // docs/conventions.md ("Tile and texels") states the rules and thresholds.
 // Sample positions depend on (seed, texel, level, stratum) only — not on the view, the thread or
 // the chunk — so runs are deterministic with any thread count, resume to the same bytes, and the
@@ -30,8 +32,8 @@ namespace btf {
 struct AdaptiveSettings {
   int maxK = 8;             // finest level: maxK × maxK samples (a power of two, 2..64)
   float tolerance = 0.01f;  // estimated error per value, relative to max(value, floor)
-  /// At the map's level, also split every cell whose footprint holds an edge of the view's or
-  /// the light's edge table (finds slivers that every map sample missed).
+  /// At the map's level, also split every cell whose footprint holds an edge of the view's edge
+  /// table (geometric slivers that every map sample missed; shadow-edge cells always split).
   bool edgeCells = false;
 };
 

@@ -64,8 +64,8 @@ float DirectIllumination::shadowMapVisibility(int l, const Vec3& p, const Vec3& 
                        std::sqrt(ng.x * ng.x + ng.y * ng.y), prim);
 }
 
-float DirectIllumination::mapVisibility(int l, const Vec3& p, float cn, float ngXY,
-                                        uint32_t prim) const {
+float DirectIllumination::mapVisibility(int l, const Vec3& p, float cn, float ngXY, uint32_t prim,
+                                        bool* decided) const {
   const LightInfo& L = m_lights[size_t(l)];
   const SampleGrid& g = m_maps.grid();
   // Project p along ωi onto the plane: q = p − (p.z / cos θi) ωi; r is p's distance along ωi.
@@ -91,8 +91,6 @@ float DirectIllumination::mapVisibility(int l, const Vec3& p, float cn, float ng
   const float rb = r + bias;
   const size_t k00 = size_t(j0) * su + i0, k10 = size_t(j0) * su + i1;
   const size_t k01 = size_t(j1) * su + i0, k11 = size_t(j1) * su + i1;
-  // The common case: every tap lies beyond p (lit), no triangle test needed.
-  if (rb >= depths[k00] && rb >= depths[k10] && rb >= depths[k01] && rb >= depths[k11]) return 1.0f;
   const float Lx = float(g.Lx), Ly = float(g.Ly);
   const float copy2 = 0.25f * std::min(Lx, Ly) * std::min(Lx, Ly);
   auto lit = [&](int i, int j, size_t k) -> float {
@@ -108,6 +106,27 @@ float DirectIllumination::mapVisibility(int l, const Vec3& p, float cn, float ng
     const float ex = gx + d * L.w.x - p.x, ey = gy + d * L.w.y - p.y, ez = d * L.w.z - p.z;
     return ex * ex + ey * ey + ez * ez < copy2 ? 1.0f : 0.0f;
   };
+  if (decided) {
+    // The map decides p when the 3 × 3 taps around p's own map cell agree: map samples are
+    // jittered within their cells, so only the neighbouring cells' lie on both sides of p.
+    const int ci = tx < 0.5f ? i0 : i1, cj = ty < 0.5f ? j0 : j1;
+    const size_t kc = size_t(cj) * su + ci;
+    const float first = lit(ci, cj, kc);
+    for (int b = -1; b <= 1; ++b) {
+      const int jj = cj + b < 0 ? cj + b + sv : cj + b >= sv ? cj + b - sv : cj + b;
+      for (int a = -1; a <= 1; ++a) {
+        const int ii = ci + a < 0 ? ci + a + su : ci + a >= su ? ci + a - su : ci + a;
+        if (lit(ii, jj, size_t(jj) * su + ii) != first) {
+          *decided = false;
+          return first;
+        }
+      }
+    }
+    *decided = true;
+    return first;
+  }
+  // The common case: every tap lies beyond p (lit), no triangle test needed.
+  if (rb >= depths[k00] && rb >= depths[k10] && rb >= depths[k01] && rb >= depths[k11]) return 1.0f;
   return (lit(i0, j0, k00) * (1 - tx) + lit(i1, j0, k10) * tx) * (1 - ty) +
          (lit(i0, j1, k01) * (1 - tx) + lit(i1, j1, k11) * tx) * ty;
 }
@@ -239,10 +258,16 @@ Rgb DirectIllumination::contribution(const Surface& s, int l, bool exactShadow) 
   if (cosN <= 0 || cn <= 0) return Rgb(0);
   if (!s.lambert && s.wo.z <= 0) return Rgb(0);
   float vis = 1.0f;
-  if (m_settings.shadows == ShadowMode::Map && !L.rays && !exactShadow)
+  if (m_settings.shadows == ShadowMode::Map && !L.rays && !exactShadow) {
     vis = mapVisibility(l, s.p, cn, s.ngXY, s.prim);
-  else if (m_settings.shadows != ShadowMode::None)
+  } else if (m_settings.shadows == ShadowMode::Map && !L.rays) {
+    // Near a shadow edge: the map where its taps agree, else an exact ray.
+    bool decided = false;
+    vis = mapVisibility(l, s.p, cn, s.ngXY, s.prim, &decided);
+    if (!decided) vis = m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f;
+  } else if (m_settings.shadows != ShadowMode::None) {
     vis = m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f;
+  }
   if (vis <= 0) return Rgb(0);
   const Rgb f = s.lambert ? s.mat->kdOverPi : brdf(*s.mat, s.frame, s.wo, s.wv, cosN, s.wo.z, l);
   return f * (cosN * L.invCos * vis);

@@ -83,8 +83,10 @@ class DirectIllumination {
     bool rays;             // map mode, grazing light: exact shadow rays instead
   };
   /// Shadow-map visibility with the per-sample and per-pair terms already known: cn = ng·ωi > 0,
-  /// ngXY = |ng_xy|.
-  float mapVisibility(int l, const Vec3& p, float cn, float ngXY, uint32_t prim) const;
+  /// ngXY = |ng_xy|. With `decided`: 0 or 1 where the 3 × 3 taps around p agree (*decided
+  /// true), else *decided false (the caller traces a ray).
+  float mapVisibility(int l, const Vec3& p, float cn, float ngXY, uint32_t prim,
+                      bool* decided = nullptr) const;
   /// f_r(ωi = light l, ωo = wv) at shading normal n, given cosN = n·ωi > 0 and won = n·ωv > 0.
   /// Blinn-Phong in world space (n·h = cosN + won, |h|² = 2 + 2 ωi·ωv: no frame, no sqrt of h);
   /// the other models through the local frame.
