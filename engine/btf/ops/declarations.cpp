@@ -115,7 +115,7 @@ Opts effectOptions() {
       fl("grazing_rays", 70, 0, 90,
          "shadow maps: lights at θi ≥ this many degrees use exact shadow rays (90 = none)"),
       in("network_voxels", 0, 0, 1024,
-         "network density, voxels per side (0 = one per texel, at least 32, at most 128)"),
+         "network density, voxels per side (0 = one per texel, at least 64, at most 128)"),
       in("links", 16, 1, 256, "network links per point"),
       in("gather", 4, 1, 16, "N1: network points per direct hit"),
       in("gather_occlusion", 16, 0, 1024,

@@ -331,7 +331,7 @@ const TypeDecl& simulationDecl() {
        in("bounces", 0, 0, 64, "P, reflections per path (1 = direct only); 0 = from the plan"),
        in("network_voxels", 0, 0, 1024,
           "point-network density, voxels along the longer tile side; 0 = one per texel, at least "
-          "32 and at most 128")}};
+          "64 and at most 128")}};
   return d;
 }
 

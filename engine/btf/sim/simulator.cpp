@@ -100,7 +100,7 @@ std::string SimulationJob::sceneHash() const {
 
 NetworkSettings SimulationJob::networkSettings() const {
   NetworkSettings n = m_opt.network;
-  if (n.voxels == 0) n.voxels = std::clamp(std::max(m_opt.nu, m_opt.nv), 32, 128);
+  if (n.voxels == 0) n.voxels = std::clamp(std::max(m_opt.nu, m_opt.nv), 64, 128);
   n.seed = m_opt.seed;
   return n;
 }

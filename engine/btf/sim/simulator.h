@@ -53,7 +53,7 @@ struct SimOptions {
   /// it; "pt": unbiased path tracing of every value (small configurations, the reference).
   std::string method = "network";
   PlanRequest plan;
-  NetworkSettings network = autoNetwork();  // voxels 0: one voxel per texel, in [32, 128]
+  NetworkSettings network = autoNetwork();  // voxels 0: one voxel per texel, in [64, 128]
   int ptPaths = 16;                         // --method pt: paths per texel sample
 };
 
