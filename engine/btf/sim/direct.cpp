@@ -109,14 +109,14 @@ float DirectIllumination::mapVisibility(int l, const Vec3& p, float cn, float ng
   if (decided) {
     // The map decides p when the 3 × 3 taps around p's own map cell agree: map samples are
     // jittered within their cells, so only the neighbouring cells' lie on both sides of p.
+    auto wrap = [](int v, int n) { return v < 0 ? v + n : v >= n ? v - n : v; };
     const int ci = tx < 0.5f ? i0 : i1, cj = ty < 0.5f ? j0 : j1;
-    const size_t kc = size_t(cj) * su + ci;
-    const float first = lit(ci, cj, kc);
+    const float first = lit(ci, cj, size_t(cj) * su + ci);
     for (int b = -1; b <= 1; ++b) {
-      const int jj = cj + b < 0 ? cj + b + sv : cj + b >= sv ? cj + b - sv : cj + b;
+      const int jj = wrap(cj + b, sv);
       for (int a = -1; a <= 1; ++a) {
-        const int ii = ci + a < 0 ? ci + a + su : ci + a >= su ? ci + a - su : ci + a;
-        if (lit(ii, jj, size_t(jj) * su + ii) != first) {
+        const int ii = wrap(ci + a, su);
+        if ((a || b) && lit(ii, jj, size_t(jj) * su + ii) != first) {
           *decided = false;
           return first;
         }
@@ -258,12 +258,10 @@ Rgb DirectIllumination::contribution(const Surface& s, int l, bool exactShadow) 
   if (cosN <= 0 || cn <= 0) return Rgb(0);
   if (!s.lambert && s.wo.z <= 0) return Rgb(0);
   float vis = 1.0f;
-  if (m_settings.shadows == ShadowMode::Map && !L.rays && !exactShadow) {
-    vis = mapVisibility(l, s.p, cn, s.ngXY, s.prim);
-  } else if (m_settings.shadows == ShadowMode::Map && !L.rays) {
-    // Near a shadow edge: the map where its taps agree, else an exact ray.
-    bool decided = false;
-    vis = mapVisibility(l, s.p, cn, s.ngXY, s.prim, &decided);
+  if (m_settings.shadows == ShadowMode::Map && !L.rays) {
+    // Near a shadow edge (exactShadow): the map where its taps agree, else an exact ray.
+    bool decided = true;
+    vis = mapVisibility(l, s.p, cn, s.ngXY, s.prim, exactShadow ? &decided : nullptr);
     if (!decided) vis = m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f;
   } else if (m_settings.shadows != ShadowMode::None) {
     vis = m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f;
