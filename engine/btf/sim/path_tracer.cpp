@@ -51,7 +51,10 @@ void tracePath(const PeriodicTracer& tracer, const std::vector<Material>& materi
   if (!hit.hit()) return;
   Vec3 p = Vec3(p0 + double(depth) * wo);
   Vec3 toViewer = Vec3(wo);
-  Rgb beta(weight);
+  // The path's throughput starts at 1: Russian roulette reads it, so the caller's weight (e.g.
+  // 1 / samples) must not enter it — a small weight would end nearly every path at rrDepth and
+  // leave the deeper orders to a few survivors scaled by 1 / q (unbiased, but extreme variance).
+  Rgb beta(1.0f);
   for (int bounce = 1;; ++bounce) {
     Vec3 ng, n;
     if (!hitNormals(g, hit.prim, hit.u, hit.v, toViewer, &ng, &n)) return;
@@ -65,7 +68,7 @@ void tracePath(const PeriodicTracer& tracer, const std::vector<Material>& materi
       if (cosN <= 0 || glm::dot(ng, wl) <= 0) continue;
       if (tracer.occluded(origin, DVec3(wl))) continue;
       const Rgb f = evalBrdf(mat, frame.toLocal(wl), woL);
-      out[l] += beta * f * (cosN / float(std::max(lights[l].z, 1e-7)));
+      out[l] += weight * beta * f * (cosN / float(std::max(lights[l].z, 1e-7)));
     }
     if (bounce >= limit) return;
     const float u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();

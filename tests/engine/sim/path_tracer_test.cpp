@@ -153,6 +153,57 @@ TEST(PathTracer, EnergyGrowsWithPathLengthAndIsConserved) {
     }
 }
 
+// The caller's sample weight (1 / samples in the BTF kernel) scales a path's contribution and
+// nothing else: Russian roulette reads the throughput alone. (It once started the throughput at
+// the weight, so a weight of 1/64 ended ~99 % of paths at the roulette depth and left the deeper
+// orders to a few survivors scaled by ~64: unbiased, but per-texel noise of tens of per cent and
+// tile averages several per cent off at V-grooves' deep pairs.)
+TEST(PathTracer, SampleWeightOnlyScalesThePath) {
+  Fixture f(scene(R"({"type": "lambert", "albedo": [0.8, 0.8, 0.8]})", kVGroove));
+  const DirectionPair pr = pairFromDegrees(56.25, 22.5, 56.25, 247.5);
+  const float w = 1.0f / 64;
+  PathSettings unbounded, three;
+  three.maxBounces = 3;
+  int deeper = 0, mismatched = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const DVec3 p0 = tilePosition(5, k % 50, k / 50, 50, f.g.Lx, f.g.Ly, 0);
+    Rgb one(0), weighted(0), first3(0);
+    Rng r1(hashKeys(9, uint64_t(k))), r2(hashKeys(9, uint64_t(k))), r3(hashKeys(9, uint64_t(k)));
+    tracePath(*f.tracer, f.mats, p0, pr.wo, &pr.wi, 1, unbounded, r1, 1.0f, &one);
+    tracePath(*f.tracer, f.mats, p0, pr.wo, &pr.wi, 1, unbounded, r2, w, &weighted);
+    tracePath(*f.tracer, f.mats, p0, pr.wo, &pr.wi, 1, three, r3, 1.0f, &first3);
+    deeper += one.x > first3.x * 1.001f;  // the path went past the roulette depth
+    mismatched += std::abs(weighted.x - w * one.x) > 1e-5f * w * one.x + 1e-12f;
+  }
+  EXPECT_EQ(mismatched, 0);
+  EXPECT_GT(deeper, 50);  // the comparison covers paths that met the roulette
+}
+
+// The BTF kernel's path tracer (one walk per sample shared by every light, weighted 1/samples)
+// agrees with the tile-averaged path tracer at a pure-indirect V-groove pair, both ways round:
+// the tile average is reciprocal.
+TEST(PathTracer, TexelModeIsReciprocalAtADeepPair) {
+  Fixture f(scene(R"({"type": "lambert", "albedo": [0.8, 0.8, 0.8]})", kVGroove));
+  const DirectionPair a = pairFromDegrees(56.25, 22.5, 56.25, 247.5);
+  const DirectionPair b = pairFromDegrees(56.25, 247.5, 56.25, 22.5);
+  PathSettings ps;
+  const auto ref = pathTracedBrdf(*f.tracer, f.mats, {a, b}, 128, 4, ps);
+  const SampleGrid grid{16, 16, 4, f.g.Lx, f.g.Ly, 3};
+  double avg[2] = {0, 0};
+  int k = 0;
+  for (const DirectionPair& pr : {a, b}) {
+    const auto t = pathTracedTexels(*f.tracer, f.mats, grid, pr.wo, {pr.wi}, 16, ps);
+    for (const Rgb& v : t) avg[k] += double(v.x) / double(t.size());
+    ++k;
+  }
+  // Pure indirect light (the view sees only the unlit faces): 65 536 paths each, ~1 % noise.
+  EXPECT_GT(ref[0].x, 0.09f);
+  EXPECT_NEAR(ref[0].x, ref[1].x, 0.015 * ref[0].x);
+  EXPECT_NEAR(avg[0], ref[0].x, 0.03 * ref[0].x);
+  EXPECT_NEAR(avg[1], ref[1].x, 0.03 * ref[1].x);
+  EXPECT_NEAR(avg[0], avg[1], 0.03 * (avg[0] + avg[1]) / 2);
+}
+
 TEST(PathTracer, HardCasesStayFinite) {
   // Near-mirror lobe, albedo 1 with unbounded paths, grazing directions, degenerate triangles.
   const char* mats[] = {
