@@ -3,6 +3,7 @@
 #include <btf/sim/adaptive.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -84,12 +85,37 @@ struct Sample {
   float ly = 0;
   bool ok = false;      // the camera ray hit a shadeable surface
   bool inPrev = false;  // already part of the previous level (its contributions are summed)
+  int cls = -1;         // its face in Scratch::faces (−1: none, its value is its own)
   int prevIndex = -1;   // its index in the previous level's array
   DirectIllumination::Surface s;
 };
 
+constexpr int kMaxClasses = 16;  // faces per (texel, view) whose values are shared
+
 struct Scratch {
   std::vector<Sample> levels[AdaptiveStats::kLevels];
+  // The faces seen in the current (texel, view) — material and normals — and, per face and
+  // light, the unshadowed value (valid where its stamp is the current one).
+  struct Face {
+    uint32_t material;
+    Vec3 n, ng;
+    DirectIllumination::Surface s;  // one of its samples
+  };
+  std::vector<Face> faces;
+  std::vector<Rgb> classValue;
+  std::vector<uint32_t> classStamp;
+  uint32_t stamp = 0;
+  std::vector<uint8_t> lit;     // per light: every receiver of the texel is lit
+  std::vector<uint8_t> notLit;  // per light: a sample was shadowed, or the map undecided
+  std::vector<int8_t> cellEdge[AdaptiveStats::kLevels];  // per level and cell: −1 unknown
+  // The geometric refinement: per level, the cells whose children exist; the current level's
+  // representative sample of each cell and whether the cell has its own sample.
+  std::vector<uint8_t> built[AdaptiveStats::kLevels];
+  std::vector<const Sample*> rep, nextRep;
+  std::vector<uint8_t> exists, nextExists;
+  std::vector<float> area;                    // per face: cells of the final grid
+  std::vector<std::array<int, 2>> geoExtra;   // (level, cell): its samples beyond the map's
+  std::vector<std::array<int, 3>> facePairs;  // (face a, face b, neighbouring cell pairs)
   // Per active light (slot) and cell of the current level: luminance, RGB, own sample or not.
   std::vector<float> cellY, nextY;
   std::vector<Rgb> cellRgb, nextRgb;
@@ -136,7 +162,12 @@ AdaptiveTexelSampler::AdaptiveTexelSampler(const PeriodicTracer& tracer,
     const double c = std::max(d.w.z, 1e-7);
     m_slopeX.push_back(float(d.w.x / c));
     m_slopeY.push_back(float(d.w.y / c));
+    m_invCos.push_back(float(1.0 / c));
   }
+  // Half the shadow map's smallest bias (DirectIllumination::mapVisibility): a tap this far
+  // beyond a receiver still lights it.
+  m_litMargin =
+      0.125f * direct.settings().biasScale * float(std::max(g.Lx / g.su(), g.Ly / g.sv()));
   // A quarter of the brightest diffuse aBRDF of the scene's materials.
   float brightest = 0;
   for (const Material& m : materials)
@@ -147,6 +178,23 @@ AdaptiveTexelSampler::AdaptiveTexelSampler(const PeriodicTracer& tracer,
 int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   thread_local Scratch sc;
   const int nL = m_dirs.size();
+  sc.faces.clear();
+  auto classify = [&](Sample& S) {
+    S.cls = -1;
+    if (!S.ok) return;
+    const int n = int(sc.faces.size());
+    for (int c = 0; c < n; ++c) {
+      const Scratch::Face& F = sc.faces[size_t(c)];
+      if (F.material == S.s.material && F.n == S.s.n && F.ng == S.s.ng) {
+        S.cls = c;
+        return;
+      }
+    }
+    if (n < kMaxClasses) {
+      sc.faces.push_back({S.s.material, S.s.n, S.s.ng, S.s});
+      S.cls = n;
+    }
+  };
   const SampleGrid& g = m_maps.grid();
   const int Km = g.spp;
   const DVec3 wv = m_dirs[view].w;
@@ -166,6 +214,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       S.prevIndex = -1;
       S.ok = m_direct.surface(S.pos, wv, m_maps.prim(view, si), m_maps.bu(view, si),
                               m_maps.bv(view, si), m_maps.depth(view, si), &S.s);
+      classify(S);
     }
   if (m_mapLevel == 1) {
     // Level 0: one of the map's four samples in each quadrant, chosen per (texel, quadrant).
@@ -226,24 +275,55 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       }
     return *lo <= *hi;
   };
-  // Edge samples of direction d's table in the texel-local rectangle [x0, x1] × [y0, y1] swept
-  // along −ω over heights [zlo, zhi] (slopes sx, sy in samples per unit height), widened by one
-  // sample.
-  auto edgesIn = [&](int d, float x0, float x1, float y0, float y1, float sx, float sy, float zlo,
-                     float zhi) {
-    if (!m_maps.hasEdgeTables()) return false;
-    const float a0 = (float(i) + x0) * float(Km) - std::max(zlo * sx, zhi * sx) - 1.0f;
-    const float a1 = (float(i) + x1) * float(Km) - std::min(zlo * sx, zhi * sx) + 1.0f;
-    const float b0 = (float(j) + y0) * float(Km) - std::max(zlo * sy, zhi * sy) - 1.0f;
-    const float b1 = (float(j) + y1) * float(Km) - std::min(zlo * sy, zhi * sy) + 1.0f;
-    return m_maps.edgeCount(d, int(std::floor(a0)), int(std::ceil(a1)), int(std::floor(b0)),
-                            int(std::ceil(b1))) > 0;
+  // The map-sample rectangle of the texel-local rectangle [x0, x1] × [y0, y1] swept along −ω
+  // over heights [zlo, zhi] (slopes sx, sy in samples per unit height), widened by `pad`
+  // samples.
+  struct Rect {
+    int a0, a1, b0, b1;
+  };
+  auto footprint = [&](float x0, float x1, float y0, float y1, float sx, float sy, float zlo,
+                       float zhi, float pad) {
+    const float a0 = (float(i) + x0) * float(Km) - std::max(zlo * sx, zhi * sx) - pad;
+    const float a1 = (float(i) + x1) * float(Km) - std::min(zlo * sx, zhi * sx) + pad;
+    const float b0 = (float(j) + y0) * float(Km) - std::max(zlo * sy, zhi * sy) - pad;
+    const float b1 = (float(j) + y1) * float(Km) - std::min(zlo * sy, zhi * sy) + pad;
+    return Rect{int(std::floor(a0)), int(std::ceil(a1)), int(std::floor(b0)), int(std::ceil(b1))};
+  };
+  // Edge samples of the view's table in a texel-local rectangle, widened by one sample.
+  auto viewEdgesIn = [&](float x0, float x1, float y0, float y1) {
+    const Rect r = footprint(x0, x1, y0, y1, 0, 0, 0, 0, 1.0f);
+    return m_maps.hasEdgeTables() && m_maps.edgeCount(view, r.a0, r.a1, r.b0, r.b1) > 0;
+  };
+  // The same per cell of level L (light-independent: computed once per (texel, view)).
+  for (auto& v : sc.cellEdge) v.clear();
+  auto cellEdge = [&](int L, int k) {
+    std::vector<int8_t>& v = sc.cellEdge[L];
+    const int K = 2 << L;
+    if (v.empty()) v.assign(size_t(K) * K, -1);
+    if (v[size_t(k)] < 0) {
+      const float inv = 1.0f / float(K);
+      const int c = k % K, r = k / K;
+      v[size_t(k)] = viewEdgesIn(c * inv, (c + 1) * inv, r * inv, (r + 1) * inv);
+    }
+    return v[size_t(k)] != 0;
   };
   // A receiver seen through plane point x at height z lies at x + z·sv (sv: the view's slope,
   // ω.xy / ω.z); light l's map holds it at x + z·(sv − sl). In map samples per unit height:
   const float vsx = m_slopeX[size_t(view)], vsy = m_slopeY[size_t(view)];
   auto lightSlopeX = [&](int l) { return (m_slopeX[size_t(l)] - vsx) * m_toSampleX; };
   auto lightSlopeY = [&](int l) { return (m_slopeY[size_t(l)] - vsy) * m_toSampleY; };
+  // Can light l's visibility change across the receivers of a texel-local rectangle at
+  // heights [zlo, zhi]? Only where its map holds a shadow edge (a silhouette seen from the
+  // light) in their footprint, and something there lies above the lowest receiver: a receiver
+  // on top of an occluder sees the occluder's own outline in the map, lit on both sides. (The
+  // depth test is widened by one more sample: the map's 3 × 3 taps reach that far.)
+  auto shadowIn = [&](int l, float x0, float x1, float y0, float y1, float zlo, float zhi) {
+    const float sx = lightSlopeX(l), sy = lightSlopeY(l);
+    const Rect r = footprint(x0, x1, y0, y1, sx, sy, zlo, zhi, 1.0f);
+    if (!m_maps.shadowEdgeCount(l, r.a0, r.a1, r.b0, r.b1)) return false;
+    return m_maps.maxDepth(l, r.a0 - 1, r.a1 + 1, r.b0 - 1, r.b1 + 1) >
+           zlo * m_invCos[size_t(l)] + m_litMargin;
+  };
   sc.flagged.assign(size_t(nL), 0);
   float qlo[4], qhi[4];
   bool qok[4];
@@ -251,49 +331,252 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   float tlo = INFINITY, thi = -INFINITY;
   for (int q = 0; q < 4; ++q)
     if (qok[q]) tlo = std::min(tlo, qlo[q]), thi = std::max(thi, qhi[q]);
+  // Lights that light every receiver of the texel: nothing in the map over the receivers'
+  // footprint lies above the lowest of them (the flat top of a wall, an open floor). Their
+  // samples take no visibility test (at heights within the map samples' range, the footprint's).
+  sc.lit.assign(size_t(nL), 0);
+  const float zTol = 1e-6f * float(m_texelSize);
   for (int l = 0; l < nL && m_shadowEdges && okCount; ++l) {
-    const float sx = lightSlopeX(l), sy = lightSlopeY(l);
-    // The whole texel first: most lights have no edge near it.
-    if (!edgesIn(l, 0.0f, 1.0f, 0.0f, 1.0f, sx, sy, tlo, thi)) continue;
+    const Rect r =
+        footprint(0.0f, 1.0f, 0.0f, 1.0f, lightSlopeX(l), lightSlopeY(l), tlo, thi, 1.0f);
+    if (m_maps.maxDepth(l, r.a0 - 1, r.a1 + 1, r.b0 - 1, r.b1 + 1) <=
+        tlo * m_invCos[size_t(l)] + m_litMargin) {
+      sc.lit[size_t(l)] = 1;
+      continue;
+    }
+    // The whole texel first: most other lights have no shadow edge near it either.
+    if (!m_maps.shadowEdgeCount(l, r.a0, r.a1, r.b0, r.b1)) continue;
     for (int q = 0; q < 4; ++q)
-      if (qok[q] && edgesIn(l, 0.5f * float(q & 1), 0.5f * float((q & 1) + 1), 0.5f * float(q >> 1),
-                            0.5f * float((q >> 1) + 1), sx, sy, qlo[q], qhi[q]))
+      if (qok[q] && shadowIn(l, 0.5f * float(q & 1), 0.5f * float((q & 1) + 1),
+                             0.5f * float(q >> 1), 0.5f * float((q >> 1) + 1), qlo[q], qhi[q]))
         sc.flagged[size_t(l)] |= uint8_t(1u << q);
   }
 
-  // A sample's contribution for light l (flagged lights: exact shadow rays where the map's taps
-  // disagree).
-  auto contrib = [&](const Sample& S, int l) -> Rgb {
-    return m_direct.contribution(S.s, l, sc.flagged[size_t(l)] != 0);
+  // A sample's contribution for light l: its face's unshadowed value (once per face and light:
+  // samples of one flat face share it) times its visibility (flagged lights: exact shadow rays
+  // where the map's taps disagree).
+  if (++sc.stamp == 0) std::fill(sc.classStamp.begin(), sc.classStamp.end(), 0u), sc.stamp = 1;
+  if (sc.classStamp.size() < size_t(kMaxClasses) * nL) {
+    sc.classStamp.assign(size_t(kMaxClasses) * nL, 0u);
+    sc.classValue.resize(size_t(kMaxClasses) * nL);
+  }
+  sc.notLit.assign(size_t(nL), 0);
+  auto faceValue = [&](int c, int l) -> const Rgb& {
+    const size_t k = size_t(c) * size_t(nL) + size_t(l);
+    if (sc.classStamp[k] != sc.stamp) {
+      sc.classValue[k] = m_direct.unshadowed(sc.faces[size_t(c)].s, l);
+      sc.classStamp[k] = sc.stamp;
+    }
+    return sc.classValue[k];
+  };
+  auto contrib = [&](const Sample& S, int l, uint8_t* open) -> Rgb {
+    *open = 0;
+    const Rgb f = S.cls >= 0 ? faceValue(S.cls, l) : m_direct.unshadowed(S.s, l);
+    if (f.x == 0 && f.y == 0 && f.z == 0) return f;
+    if (sc.lit[size_t(l)] && S.s.p.z >= tlo - zTol && S.s.p.z <= thi + zTol) return f;
+    bool decided = true;
+    const float v = m_direct.visibility(S.s, l, sc.flagged[size_t(l)] != 0, &decided);
+    if (!decided || v < 1.0f) sc.notLit[size_t(l)] = 1;
+    *open = !decided;
+    return f * v;
   };
 
-  // Every light starts from level 0. Per light and level, a K×K array of cells: the luminance
-  // and RGB of the cell's own sample ("real" cells) or, where a coarser cell was not split, of
-  // that cell's sample (a stratum of the coarser level). The estimate is the mean over cells.
-  sc.cellY.assign(size_t(nL) * 4, 0.f);
-  sc.cellRgb.assign(size_t(nL) * 4, Rgb(0));
-  sc.cellReal.assign(size_t(nL) * 4, 1);
+  uint64_t rays = 0;
+  // The four children of cell k of level L (the one holding the parent's sample keeps it), at
+  // level L + 1: fresh camera rays, traced once per (texel, view) and shared by every light.
+  for (int L = m_mapLevel; L + 1 < AdaptiveStats::kLevels; ++L)
+    sc.built[L].assign(size_t(2 << L) * size_t(2 << L), 0);
+  auto buildChildren = [&](int L, int k) {
+    if (sc.built[L][size_t(k)]) return;
+    sc.built[L][size_t(k)] = 1;
+    const int K = 2 << L, K2 = 2 * K;
+    std::vector<Sample>& nxt = sc.levels[L + 1];
+    nxt.resize(size_t(K2) * K2);
+    const int pi = k % K, pj = k / K;
+    const Sample& ps = sc.levels[L][size_t(k)];
+    const int cx = std::clamp(int(ps.lx * float(K2)), 2 * pi, 2 * pi + 1);
+    const int cy = std::clamp(int(ps.ly * float(K2)), 2 * pj, 2 * pj + 1);
+    for (int d = 0; d < 4; ++d) {
+      const int ci = 2 * pi + (d & 1), cj = 2 * pj + (d >> 1);
+      Sample& cs = nxt[size_t(cj) * K2 + ci];
+      if (ci == cx && cj == cy) {
+        cs = ps;
+        cs.inPrev = true;
+        cs.prevIndex = k;
+        continue;
+      }
+      const uint64_t h = hashKeys(g.seed ^ 0xada97a1e5ull, uint64_t(i) * K2 + uint64_t(ci),
+                                  uint64_t(j) * K2 + uint64_t(cj), uint64_t(L + 1));
+      cs.lx = (float(ci) + uniformFloat(h)) / float(K2);
+      cs.ly = (float(cj) + uniformFloat(mix64(h))) / float(K2);
+      cs.pos = DVec3((i + double(cs.lx)) * g.Lx / g.nu, (j + double(cs.ly)) * g.Ly / g.nv, 0.0);
+      float depth;
+      const RayHit hit = traceSampleRay(m_tracer, cs.pos, wv, &depth);
+      ++rays;
+      cs.inPrev = false;
+      cs.prevIndex = -1;
+      cs.ok = hit.hit() && m_direct.surface(cs.pos, wv, hit.prim, hit.u, hit.v, depth, &cs.s);
+      classify(cs);
+    }
+  };
+
+  // Lights that light the whole texel, where it shows flat faces only: the value is Σ over the
+  // faces of (area fraction × the face's unshadowed value), closed form. The area fractions are
+  // the light's business only through the face values, so they come from one refinement per
+  // (texel, view): from the map's samples, cells whose sample sees another face (or a miss)
+  // than a neighbour's split, with their four neighbours, down to the finest level.
   sc.samplesUsed.assign(size_t(nL), 4);
   sc.finalLevel.assign(size_t(nL), 0);
+  sc.err.assign(size_t(nL), 0.f);
+  int closedLights = 0;
+  for (int l = 0; l < nL; ++l) closedLights += sc.lit[size_t(l)] || sc.flagged[size_t(l)];
+  bool closed = closedLights > 0;
+  for (const Sample& S : map) closed = closed && (!S.ok || S.cls >= 0);
+  int gFinal = m_mapLevel, leaves = int(map.size());
+  sc.geoExtra.clear();
+  if (closed) {
+    const int n0 = int(map.size());
+    sc.rep.resize(size_t(n0));
+    sc.exists.assign(size_t(n0), 1);
+    for (int k = 0; k < n0; ++k) sc.rep[size_t(k)] = &map[size_t(k)];
+    auto face = [](const Sample* S) { return S->ok ? S->cls : kMaxClasses; };
+    for (int L = m_mapLevel; L < m_maxLevel && closed; ++L) {
+      const int K = 2 << L, n = K * K;
+      sc.hot.assign(size_t(n), 0);
+      for (int r = 0; r < K; ++r)
+        for (int c = 0; c < K; ++c) {
+          const int k = r * K + c;
+          for (const int o : {k + 1, k + K}) {
+            if ((o == k + 1 && c + 1 == K) || (o == k + K && r + 1 == K)) continue;
+            if ((sc.exists[size_t(k)] || sc.exists[size_t(o)]) &&
+                face(sc.rep[size_t(k)]) != face(sc.rep[size_t(o)]))
+              sc.hot[size_t(k)] = sc.hot[size_t(o)] = 1;
+          }
+        }
+      bool any = false;
+      for (int r = 0; r < K && closed; ++r)
+        for (int c = 0; c < K && closed; ++c) {
+          const int k = r * K + c;
+          if (!sc.exists[size_t(k)]) continue;
+          if (!(sc.hot[size_t(k)] || (c > 0 && sc.hot[size_t(k - 1)]) ||
+                (c + 1 < K && sc.hot[size_t(k + 1)]) || (r > 0 && sc.hot[size_t(k - K)]) ||
+                (r + 1 < K && sc.hot[size_t(k + K)])))
+            continue;
+          buildChildren(L, k);
+          any = true;
+          leaves += 3;
+          for (int d = 0; d < 4; ++d) {
+            const int c2 = (2 * (k / K) + (d >> 1)) * (2 * K) + 2 * (k % K) + (d & 1);
+            if (!sc.levels[L + 1][size_t(c2)].inPrev) sc.geoExtra.push_back({L + 1, c2});
+          }
+          const int K2 = 2 * K;
+          for (int d = 0; d < 4; ++d) {
+            const Sample& cs = sc.levels[L + 1][size_t(2 * (k / K) + (d >> 1)) * K2 +
+                                                size_t(2 * (k % K) + (d & 1))];
+            closed = closed && (!cs.ok || cs.cls >= 0);  // a face beyond the table: per sample
+          }
+        }
+      if (!any || !closed) break;
+      const int K2 = 2 * K, n2 = K2 * K2;
+      sc.nextRep.resize(size_t(n2));
+      sc.nextExists.assign(size_t(n2), 0);
+      for (int cj = 0; cj < K2; ++cj)
+        for (int ci = 0; ci < K2; ++ci) {
+          const int k = (cj / 2) * K + ci / 2, c2 = cj * K2 + ci;
+          if (sc.exists[size_t(k)] && sc.built[L][size_t(k)]) {
+            sc.nextRep[size_t(c2)] = &sc.levels[L + 1][size_t(c2)];
+            sc.nextExists[size_t(c2)] = 1;
+          } else {
+            sc.nextRep[size_t(c2)] = sc.rep[size_t(k)];
+          }
+        }
+      std::swap(sc.rep, sc.nextRep);
+      std::swap(sc.exists, sc.nextExists);
+      gFinal = L + 1;
+    }
+  }
   int64_t evals = 0;
-  // Light by light: one light's shadow-map taps for the four samples share cache lines.
-  for (int q = 0; q < 4; ++q) evals += sc.levels[0][size_t(q)].ok ? nL : 0;
+  if (closed) {
+    // Area per face over the final grid, and the neighbouring pairs of different faces (the
+    // error estimate: the per-light rule's neighbour differences on the same grid).
+    const int K = 2 << gFinal, n = K * K;
+    const int nFaces = int(sc.faces.size());
+    sc.area.assign(size_t(nFaces), 0.f);
+    for (int k = 0; k < n; ++k)
+      if (sc.rep[size_t(k)]->ok) sc.area[size_t(sc.rep[size_t(k)]->cls)] += 1.0f;
+    sc.facePairs.clear();
+    auto face = [](const Sample* S) { return S->ok ? S->cls : -1; };
+    for (int r = 0; r < K; ++r)
+      for (int c = 0; c < K; ++c) {
+        const int k = r * K + c;
+        for (const int o : {k + 1, k + K}) {
+          if ((o == k + 1 && c + 1 == K) || (o == k + K && r + 1 == K)) continue;
+          if (!sc.exists[size_t(k)] && !sc.exists[size_t(o)]) continue;
+          int a = face(sc.rep[size_t(k)]), b = face(sc.rep[size_t(o)]);
+          if (a == b) continue;
+          if (a > b) std::swap(a, b);
+          bool found = false;
+          for (auto& fp : sc.facePairs)
+            if (fp[0] == a && fp[1] == b) ++fp[2], found = true;
+          if (!found) sc.facePairs.push_back({a, b, 1});
+        }
+      }
+  }
+  auto closedForm = [&](int l) {
+    const int K = 2 << gFinal, n = K * K;
+    const int nFaces = int(sc.faces.size());
+    {
+      Rgb sum(0);
+      for (int f = 0; f < nFaces; ++f) {
+        if (sc.area[size_t(f)] == 0) continue;
+        sum += faceValue(f, l) * sc.area[size_t(f)];
+        ++evals;
+      }
+      sum /= float(n);
+      out[3 * l] = sum.x, out[3 * l + 1] = sum.y, out[3 * l + 2] = sum.z;
+      double d2 = 0;
+      for (const auto& fp : sc.facePairs) {
+        const float ya = fp[0] < 0 ? 0.0f : lum(faceValue(fp[0], l));
+        const float yb = lum(faceValue(fp[1], l));
+        d2 += double(fp[2]) * double(ya - yb) * double(ya - yb);
+      }
+      sc.err[size_t(l)] = float(0.5 * std::sqrt(d2) / double(n));
+      sc.finalLevel[size_t(l)] = gFinal;
+      sc.samplesUsed[size_t(l)] = leaves;
+    }
+  };
+  if (closed)
+    for (int l = 0; l < nL; ++l)
+      if (sc.lit[size_t(l)]) closedForm(l);
+
+  // The other lights start from level 0. Per light and level, a K×K array of cells: the
+  // luminance and RGB of the cell's own sample ("real" cells) or, where a coarser cell was not
+  // split, of that cell's sample (a stratum of the coarser level). The estimate is the mean over
+  // cells.
+  sc.active.clear();
   for (int l = 0; l < nL; ++l)
+    if (!closed || !sc.lit[size_t(l)]) sc.active.push_back(l);
+  const int nA0 = int(sc.active.size());
+  sc.cellY.assign(size_t(nA0) * 4, 0.f);
+  sc.cellRgb.assign(size_t(nA0) * 4, Rgb(0));
+  sc.cellReal.assign(size_t(nA0) * 4, 1);
+  // Light by light: one light's shadow-map taps for the four samples share cache lines.
+  for (int q = 0; q < 4; ++q) evals += sc.levels[0][size_t(q)].ok ? nA0 : 0;
+  for (int a = 0; a < nA0; ++a)
     for (int q = 0; q < 4; ++q) {
+      const int l = sc.active[size_t(a)];
       const Sample& S = sc.levels[0][size_t(q)];
       if (!S.ok) continue;
-      const Rgb c = contrib(S, l);
-      sc.cellRgb[size_t(l) * 4 + size_t(q)] = c;
-      sc.cellY[size_t(l) * 4 + size_t(q)] = lum(c);
+      uint8_t open;
+      const Rgb c = contrib(S, l, &open);
+      sc.cellReal[size_t(a) * 4 + size_t(q)] = uint8_t(1 + open);
+      sc.cellRgb[size_t(a) * 4 + size_t(q)] = c;
+      sc.cellY[size_t(a) * 4 + size_t(q)] = lum(c);
     }
   const float tol = m_settings.tolerance;
   auto threshold = [&](float mean) { return tol * std::max(std::abs(mean), m_floor); };
-  sc.active.resize(size_t(nL));
-  for (int l = 0; l < nL; ++l) sc.active[size_t(l)] = l;
-  sc.err.assign(size_t(nL), 0.f);
 
   // Level by level: each active light splits the cells that need it; the others stop.
-  uint64_t rays = 0;
   auto finishLight = [&](int l, const Rgb* cells, int n) {
     Rgb sum(0);
     for (int k = 0; k < n; ++k) sum += cells[k];
@@ -310,6 +593,26 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     sc.kept.assign(size_t(nA), 0);
     for (int a = 0; a < nA; ++a) {
       const int l = sc.active[size_t(a)];
+      // A flagged light that lit every sample so far, each decided by the map's taps (no shadow
+      // edge between them, where the taps of neighbouring samples overlap): the closed form.
+      // The refinement's own samples beyond the map's level must be lit and decided too.
+      auto litBeyond = [&]() {
+        for (const auto& e : sc.geoExtra) {
+          const Sample& S = sc.levels[e[0]][size_t(e[1])];
+          if (!S.ok) continue;
+          const Rgb& f = faceValue(S.cls, l);
+          if (f.x == 0 && f.y == 0 && f.z == 0) continue;
+          bool decided = true;
+          if (m_direct.visibility(S.s, l, true, &decided) < 1.0f || !decided) return false;
+        }
+        return true;
+      };
+      if (L == m_mapLevel && closed && sc.flagged[size_t(l)] && !sc.notLit[size_t(l)] &&
+          !m_direct.exactRays(l) && litBeyond()) {
+        closedForm(l);
+        sc.kept[size_t(a)] = 2;
+        continue;
+      }
       const float* y = &sc.cellY[size_t(a) * n];
       const uint8_t* real = &sc.cellReal[size_t(a) * n];
       double sumY = 0, d2 = 0;
@@ -370,10 +673,15 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
           if (!s && byEdges && L > 0) {
             const float x0 = c * inv, x1 = (c + 1) * inv, y0 = r * inv, y1 = (r + 1) * inv;
             float zl, zh;
-            s = (m_settings.edgeCells && edge && byValue &&
-                 edgesIn(view, x0, x1, y0, y1, 0, 0, 0, 0)) ||
-                ((flags & quadrant) && zRange(K, c, r, &zl, &zh) &&
-                 edgesIn(l, x0, x1, y0, y1, lightSlopeX(l), lightSlopeY(l), zl, zh));
+            // A flagged quadrant's cell splits where the shadow edge may cross it: for a flat
+            // cell lit through the map, where the map's taps around its sample disagreed; else
+            // where its receivers' footprint in the light's map holds a shadow edge.
+            const bool edgeCell = edge && cellEdge(L, k);
+            s = (m_settings.edgeCells && byValue && edgeCell) ||
+                ((flags & quadrant) &&
+                 (edgeCell || m_direct.exactRays(l)
+                      ? zRange(K, c, r, &zl, &zh) && shadowIn(l, x0, x1, y0, y1, zl, zh)
+                      : real[k] == 2));
           }
           sp[k] = s;
           any = any || s;
@@ -390,39 +698,11 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     const int K2 = 2 * K, n2 = K2 * K2;
     std::vector<Sample>& nxt = sc.levels[L + 1];
     if (L + 1 > m_mapLevel) {
-      nxt.resize(size_t(n2));
       sc.made.assign(size_t(n), 0);
       for (int a : keep)
         for (int k = 0; k < n; ++k) sc.made[size_t(k)] |= sc.split[size_t(a) * n + k];
-      const std::vector<Sample>& par = sc.levels[L];
-      for (int k = 0; k < n; ++k) {
-        if (!sc.made[size_t(k)]) continue;
-        const int pi = k % K, pj = k / K;
-        const Sample& ps = par[size_t(k)];
-        const int cx = std::clamp(int(ps.lx * float(K2)), 2 * pi, 2 * pi + 1);
-        const int cy = std::clamp(int(ps.ly * float(K2)), 2 * pj, 2 * pj + 1);
-        for (int d = 0; d < 4; ++d) {
-          const int ci = 2 * pi + (d & 1), cj = 2 * pj + (d >> 1);
-          Sample& cs = nxt[size_t(cj) * K2 + ci];
-          if (ci == cx && cj == cy) {
-            cs = ps;
-            cs.inPrev = true;
-            cs.prevIndex = k;
-            continue;
-          }
-          const uint64_t h = hashKeys(g.seed ^ 0xada97a1e5ull, uint64_t(i) * K2 + uint64_t(ci),
-                                      uint64_t(j) * K2 + uint64_t(cj), uint64_t(L + 1));
-          cs.lx = (float(ci) + uniformFloat(h)) / float(K2);
-          cs.ly = (float(cj) + uniformFloat(mix64(h))) / float(K2);
-          cs.pos = DVec3((i + double(cs.lx)) * g.Lx / g.nu, (j + double(cs.ly)) * g.Ly / g.nv, 0.0);
-          float depth;
-          const RayHit hit = traceSampleRay(m_tracer, cs.pos, wv, &depth);
-          ++rays;
-          cs.inPrev = false;
-          cs.prevIndex = -1;
-          cs.ok = hit.hit() && m_direct.surface(cs.pos, wv, hit.prim, hit.u, hit.v, depth, &cs.s);
-        }
-      }
+      for (int k = 0; k < n; ++k)
+        if (sc.made[size_t(k)]) buildChildren(L, k);
     }
 
     // 3. Each light that splits moves to the next level: split cells get their four children's
@@ -450,10 +730,13 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
           if (cs.inPrev && cs.prevIndex == k) {
             sc.nextY[dst] = sc.cellY[src];
             sc.nextRgb[dst] = sc.cellRgb[src];
+            sc.nextReal[dst] = sc.cellReal[src];
             continue;
           }
           if (!cs.ok) continue;
-          const Rgb c = contrib(cs, l);
+          uint8_t open;
+          const Rgb c = contrib(cs, l, &open);
+          sc.nextReal[dst] = uint8_t(1 + open);
           sc.nextRgb[dst] = c;
           sc.nextY[dst] = lum(c);
           ++evals;

@@ -5,14 +5,21 @@
 // (texel, view) refines its own cells:
 //  - level 0 (2×2) and the hit map's own level (4×4 when the budget allows) cost no camera ray;
 //  - a geometric edge of the texel (between neighbouring map samples, or in the view's edge
-//    table) takes the light to the map's level; a shadow edge in the footprint of a quadrant
-//    (the light's edge table where its map holds the quadrant's receivers) takes that quadrant
-//    there, and its map-level cells whose own footprint holds the edge one level further; the
-//    light's samples then take exact shadow rays where the shadow map's taps disagree;
+//    table) takes the light to the map's level;
+//  - a light that lights every receiver of the texel (nothing in its map over their footprint
+//    lies above the lowest) takes no visibility test; over flat faces its value is closed form:
+//    Σ area fraction × unshadowed value per face, the area fractions from one refinement per
+//    (texel, view) where neighbouring samples see different faces;
+//  - a shadow edge in the footprint of a quadrant (the light's shadow-edge table where its map
+//    holds the quadrant's receivers, with something above them) takes that quadrant to the
+//    map's level, and there the cells the edge may cross one level further; the light's
+//    samples take exact shadow rays where the shadow map's 3 × 3 taps disagree; a flagged
+//    light lit at all its samples with agreeing taps takes the closed form;
 //  - beyond, while the light's error estimate (from neighbouring-cell differences) exceeds
 //    tolerance × max(value, floor), the cells that differ from a neighbour, and their four
 //    neighbours, split; finer cells trace camera rays once per (texel, view), shared by every
 //    light; `edgeCells` also splits the map-level cells whose footprint holds a geometric edge.
+// Samples of one flat face (material and normals shared) share their unshadowed value.
 // docs/conventions.md ("Tile and texels") states the rules and thresholds.
 // Sample positions depend on (seed, texel, level, stratum) only — not on the view, the thread or
 // the chunk — so runs are deterministic with any thread count, resume to the same bytes, and the
@@ -81,6 +88,8 @@ class AdaptiveTexelSampler {
   double m_texelSize = 1;
   float m_floor = 0.05f;  // values below it are judged by absolute error
   bool m_shadowEdges = false;
+  std::vector<float> m_invCos;  // per direction: 1 / cos θ
+  float m_litMargin = 0;        // a map depth this far beyond a receiver still lights it
   float m_toSampleX = 1, m_toSampleY = 1;
   std::vector<float> m_slopeX, m_slopeY;  // ωx/ωz, ωy/ωz of every light
 };

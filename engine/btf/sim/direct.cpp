@@ -251,24 +251,36 @@ bool DirectIllumination::surface(const DVec3& planePoint, const DVec3& wv, uint3
   return true;
 }
 
-Rgb DirectIllumination::contribution(const Surface& s, int l, bool exactShadow) const {
+Rgb DirectIllumination::unshadowed(const Surface& s, int l) const {
   const LightInfo& L = m_lights[size_t(l)];
   const float cosN = glm::dot(s.n, L.w);
   const float cn = glm::dot(s.ng, L.w);
   if (cosN <= 0 || cn <= 0) return Rgb(0);
   if (!s.lambert && s.wo.z <= 0) return Rgb(0);
-  float vis = 1.0f;
+  const Rgb f = s.lambert ? s.mat->kdOverPi : brdf(*s.mat, s.frame, s.wo, s.wv, cosN, s.wo.z, l);
+  return f * (cosN * L.invCos);
+}
+
+float DirectIllumination::visibility(const Surface& s, int l, bool exactShadow,
+                                     bool* mapDecided) const {
+  const LightInfo& L = m_lights[size_t(l)];
   if (m_settings.shadows == ShadowMode::Map && !L.rays) {
     // Near a shadow edge (exactShadow): the map where its taps agree, else an exact ray.
+    const float cn = std::max(glm::dot(s.ng, L.w), 1e-4f);
     bool decided = true;
-    vis = mapVisibility(l, s.p, cn, s.ngXY, s.prim, exactShadow ? &decided : nullptr);
-    if (!decided) vis = m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f;
-  } else if (m_settings.shadows != ShadowMode::None) {
-    vis = m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f;
+    const float vis = mapVisibility(l, s.p, cn, s.ngXY, s.prim, exactShadow ? &decided : nullptr);
+    if (mapDecided) *mapDecided = decided;
+    if (decided) return vis;
+  } else if (m_settings.shadows == ShadowMode::None) {
+    return 1.0f;
   }
-  if (vis <= 0) return Rgb(0);
-  const Rgb f = s.lambert ? s.mat->kdOverPi : brdf(*s.mat, s.frame, s.wo, s.wv, cosN, s.wo.z, l);
-  return f * (cosN * L.invCos * vis);
+  return m_tracer.occluded(s.origin, DVec3(L.w)) ? 0.0f : 1.0f;
+}
+
+Rgb DirectIllumination::contribution(const Surface& s, int l, bool exactShadow) const {
+  const Rgb f = unshadowed(s, l);
+  if (f.x == 0 && f.y == 0 && f.z == 0) return f;
+  return f * visibility(s, l, exactShadow);
 }
 
 Rgb DirectIllumination::evalTexelViewLight(int i, int j, int view, const DVec3& light) const {

@@ -70,6 +70,20 @@ class DirectIllumination {
   /// The aBRDF contribution of one surface sample for light l of the set: f · (n·ωi) · V / cos θi
   /// (zero when the light is below the surface). `exactShadow`: a shadow ray even in map mode.
   Rgb contribution(const Surface& s, int l, bool exactShadow = false) const;
+  /// The same without the visibility: f · (n·ωi) / cos θi, zero when the light is below the
+  /// surface. It depends on the surface only through its material, normals and view: samples
+  /// of one flat face share it.
+  Rgb unshadowed(const Surface& s, int l) const;
+  /// Light l's visibility in [0, 1] at a surface that faces it (unshadowed ≠ 0), as
+  /// `contribution` computes it. With exactShadow in map mode, *mapDecided (when given) says
+  /// whether the map's 3 × 3 taps around the point agreed (false: an exact ray decided).
+  float visibility(const Surface& s, int l, bool exactShadow = false,
+                   bool* mapDecided = nullptr) const;
+  /// Whether light l's visibility is an exact shadow ray (rays mode, or a grazing light).
+  bool exactRays(int l) const {
+    return m_settings.shadows == ShadowMode::Rays ||
+           (m_settings.shadows == ShadowMode::Map && m_lights[size_t(l)].rays);
+  }
 
   /// Shadow-map visibility in [0, 1] of point p (on triangle `prim`, geometric normal ng) for
   /// light `l` of the set.

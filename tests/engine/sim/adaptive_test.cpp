@@ -4,6 +4,7 @@
 // resumes to the same bytes, and keeps the tile average reciprocal.
 #include <btf/core/error.h>
 #include <btf/core/parallel.h>
+#include <btf/core/rng.h>
 #include <btf/scene/scene.h>
 #include <btf/sim/simulator.h>
 #include <btf/store/btf_store.h>
@@ -94,6 +95,54 @@ TEST(Adaptive, TexelsAreExactAreaFractionsOfTwoAlbedos) {
                               return (top ? 0.8 : 0.2) / kPi;
                             }),
             0.05);
+}
+
+TEST(Adaptive, ShadowEdgeTablesSkipMaterialEdgesAndBlockMaximaBoundTheDepths) {
+  // The light's map of a flat two-albedo tile has material edges only: no shadow edge. A box
+  // 0.2 tall has its silhouette (a depth step) in every oblique map.
+  const int K = 4;
+  for (double h : {1e-4, 0.2}) {
+    SCOPED_TRACE(h);
+    const Scene s = test::sceneFromJson(boxScene(h));
+    SimOptions o;
+    o.nu = o.nv = int(kTexels);
+    o.directions = "bonn81";
+    o.progress = false;
+    SimulationJob job(s, o);
+    HitMaps maps;
+    const SampleGrid grid{int(kTexels), int(kTexels), K, s.Lx, s.Ly, 7};
+    maps.build(job.tracer(), job.directions(), grid);
+    maps.buildEdgeTables(job.tracer().geometry());
+    const int su = grid.su(), sv = grid.sv(), n = job.directions().size();
+    int withShadowEdges = 0;
+    for (int d = 0; d < n; ++d) {
+      EXPECT_GT(maps.edgeCount(d, 0, su, 0, sv), 0u);  // the albedo change is an edge
+      withShadowEdges += maps.shadowEdgeCount(d, 0, su, 0, sv) > 0;
+      // Block maxima bound the depths of any rectangle (wrapped too), and equal them for a
+      // rectangle of whole 2 × 2 blocks.
+      Rng rng(uint64_t(d) + 1);
+      for (int t = 0; t < 20; ++t) {
+        const int a0 = int(rng.uniform() * 2 * su) - su / 2,
+                  b0 = int(rng.uniform() * 2 * sv) - sv / 2;
+        const int a1 = a0 + 1 + int(rng.uniform() * su / 2),
+                  b1 = b0 + 1 + int(rng.uniform() * sv / 2);
+        float brute = -INFINITY;
+        for (int b = b0; b < b1; ++b)
+          for (int a = a0; a < a1; ++a)
+            brute = std::max(brute,
+                             maps.depth(d, int64_t((b % sv + sv) % sv) * su + (a % su + su) % su));
+        EXPECT_GE(maps.maxDepth(d, a0, a1, b0, b1), brute);
+      }
+      float whole = -INFINITY;
+      for (int b = 2; b < 6; ++b)
+        for (int a = 4; a < 8; ++a) whole = std::max(whole, maps.depth(d, int64_t(b) * su + a));
+      EXPECT_EQ(maps.maxDepth(d, 4, 8, 2, 6), whole);
+    }
+    if (h < 1e-3)
+      EXPECT_EQ(withShadowEdges, 0);
+    else
+      EXPECT_EQ(withShadowEdges, n);
+  }
 }
 
 TEST(Adaptive, BoxAndShadowEdgesAreExactAreaFractions) {
