@@ -100,7 +100,7 @@ Opts effectOptions() {
       fl("epsilon", 0.01, 1e-6, 0.5, "planner: energy fraction below which an order is dropped"),
       flag("edge_cells",
            "adaptive sampling: at the 4×4 level also split every cell whose footprint holds a "
-           "geometric edge (slivers every sample missed; slower; cells holding a shadow edge "
+           "geometric edge (slivers every sample missed; slower; cells a shadow edge may cross "
            "always split)"),
       excl(fl("tolerance", 0.01, 0, 1,
               "adaptive sampling: a value refines while its estimated error exceeds this "
