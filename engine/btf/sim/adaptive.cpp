@@ -775,6 +775,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       if (byLevel[L]) m_stats->values[size_t(L)].fetch_add(byLevel[L], std::memory_order_relaxed);
     m_stats->texelViews.fetch_add(1, std::memory_order_relaxed);
     m_stats->samples.fetch_add(used, std::memory_order_relaxed);
+    m_stats->evaluations.fetch_add(uint64_t(evals), std::memory_order_relaxed);
     if (edge) m_stats->edgeTexelViews.fetch_add(1, std::memory_order_relaxed);
     if (rays) m_stats->cameraRays.fetch_add(rays, std::memory_order_relaxed);
     m_stats->errorSq.fetch_add(errSq, std::memory_order_relaxed);

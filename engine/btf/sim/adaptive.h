@@ -50,6 +50,9 @@ struct AdaptiveStats {
   // (texel, view, light) values by the finest level they reached
   std::array<std::atomic<uint64_t>, kLevels> values{};
   std::atomic<uint64_t> samples{0};  // Σ samples the values took
+  /// Σ (sample, light) evaluations made — a closed-form value costs one per face, not its
+  /// samples (local: the run's time estimate; not summed over a cluster's ranks).
+  std::atomic<uint64_t> evaluations{0};
   std::atomic<uint64_t> texelViews{0}, edgeTexelViews{0}, cameraRays{0};
   std::atomic<double> errorSq{0}, valueSq{0};  // Σ estimated error², Σ value² (luminance)
   /// Mean samples per value, the estimated relative RMS error, and the histogram as JSON.

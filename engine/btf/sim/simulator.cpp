@@ -489,11 +489,15 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     double perCall = since(t) / calls * (pathTrace ? m_opt.ptPaths : 1);
     if (m_adaptive && !pathTrace) {
       // The calibration's texels are larger than the run's: more of them straddle an edge. The
-      // refinement beyond the 4 samples of level 0 falls with the texel size; measured on brick
-      // (8×8 → 32², 64²) it goes as its square root: mean samples 4 + (s − 4)·√(cal / N).
-      const double s = std::max(4.0, st.meanSamples());
+      // refinement beyond level 0 falls with the texel size; measured on brick (8×8 → 32², 64²)
+      // it goes as its square root. In (sample, light) evaluations per value (a closed-form
+      // value costs one per face): e → b + (e − b)·√(cal / N), b = level 0's share (4, or e).
+      double values = 0;
+      for (const auto& v : st.values) values += double(v.load());
+      const double e = values > 0 ? double(st.evaluations.load()) / values : 4.0;
+      const double b = std::min(4.0, e);
       const double r = std::sqrt(std::min(1.0, double(cal) / double(std::max(m_opt.nu, m_opt.nv))));
-      perCall *= (4.0 + (s - 4.0) * r) / s;
+      if (e > 0) perCall *= (b + (e - b) * r) / e;
     }
     return perCall;
   };
