@@ -313,14 +313,16 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   auto lightSlopeX = [&](int l) { return (m_slopeX[size_t(l)] - vsx) * m_toSampleX; };
   auto lightSlopeY = [&](int l) { return (m_slopeY[size_t(l)] - vsy) * m_toSampleY; };
   // Can light l's visibility change across the receivers of a texel-local rectangle at
-  // heights [zlo, zhi]? Only where its map holds a shadow edge (a silhouette seen from the
-  // light) in their footprint, and something there lies above the lowest receiver: a receiver
+  // heights [zlo, zhi]? Only where its map holds an edge in their footprint (a silhouette seen
+  // from the light; also material edges: they refine the texel's own edges for this light, which
+  // keeps cones and bumps within 1 % of the path tracer), and something there lies above the
+  // lowest receiver: a receiver
   // on top of an occluder sees the occluder's own outline in the map, lit on both sides. (The
   // depth test is widened by one more sample: the map's 3 × 3 taps reach that far.)
   auto shadowIn = [&](int l, float x0, float x1, float y0, float y1, float zlo, float zhi) {
     const float sx = lightSlopeX(l), sy = lightSlopeY(l);
     const Rect r = footprint(x0, x1, y0, y1, sx, sy, zlo, zhi, 1.0f);
-    if (!m_maps.shadowEdgeCount(l, r.a0, r.a1, r.b0, r.b1)) return false;
+    if (!m_maps.edgeCount(l, r.a0, r.a1, r.b0, r.b1)) return false;
     return m_maps.maxDepth(l, r.a0 - 1, r.a1 + 1, r.b0 - 1, r.b1 + 1) >
            zlo * m_invCos[size_t(l)] + m_litMargin;
   };
@@ -345,7 +347,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       continue;
     }
     // The whole texel first: most other lights have no shadow edge near it either.
-    if (!m_maps.shadowEdgeCount(l, r.a0, r.a1, r.b0, r.b1)) continue;
+    if (!m_maps.edgeCount(l, r.a0, r.a1, r.b0, r.b1)) continue;
     for (int q = 0; q < 4; ++q)
       if (qok[q] && shadowIn(l, 0.5f * float(q & 1), 0.5f * float((q & 1) + 1),
                              0.5f * float(q >> 1), 0.5f * float((q >> 1) + 1), qlo[q], qhi[q]))

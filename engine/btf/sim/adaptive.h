@@ -10,7 +10,7 @@
 //    lies above the lowest) takes no visibility test; over flat faces its value is closed form:
 //    Σ area fraction × unshadowed value per face, the area fractions from one refinement per
 //    (texel, view) where neighbouring samples see different faces;
-//  - a shadow edge in the footprint of a quadrant (the light's shadow-edge table where its map
+//  - a shadow edge in the footprint of a quadrant (the light's edge table where its map
 //    holds the quadrant's receivers, with something above them) takes that quadrant to the
 //    map's level, and there the cells the edge may cross one level further; the light's
 //    samples take exact shadow rays where the shadow map's 3 × 3 taps disagree; a flagged

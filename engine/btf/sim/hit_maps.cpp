@@ -66,7 +66,6 @@ void HitMaps::buildEdgeTables(const TileGeometry& geom, const CancelToken* cance
   const int su = m_grid.su(), sv = m_grid.sv();
   const size_t stride = size_t(su + 1) * size_t(sv + 1);
   m_edgeSat.assign(size_t(m_nDirs) * stride, 0u);
-  m_shadowSat.assign(size_t(m_nDirs) * stride, 0u);
   // Block maxima: level k holds blocks of 2^(k+1) × 2^(k+1) samples, up to one block per map.
   m_blockLevels.clear();
   size_t perDir = 0;
@@ -83,48 +82,39 @@ void HitMaps::buildEdgeTables(const TileGeometry& geom, const CancelToken* cance
   parallelForChunks(
       m_nDirs, 1,
       [&](int64_t b, int64_t e) {
-        // Bit 0: any edge; bit 1: an edge of the visibility — not a material change on one
-        // surface. (A crease counts: the taps of a point at the foot of a wall reach up the
-        // wall, and the map alone would shadow it.)
         std::vector<uint8_t> mask(size_t(su) * sv);
         for (int64_t d = b; d < e; ++d) {
           std::fill(mask.begin(), mask.end(), uint8_t(0));
           const size_t base = idx(int(d), 0);
           auto key = [&](int a, int r) { return base + size_t(r) * su + size_t(a); };
-          auto differ = [&](size_t x, size_t y) -> uint8_t {
+          auto differ = [&](size_t x, size_t y) {
             const uint32_t px = m_prim[x], py = m_prim[y];
-            if ((px == kNoHit) != (py == kNoHit)) return 3;
-            if (px == kNoHit) return 0;
-            if (std::abs(m_depth[x] - m_depth[y]) > step) return 3;
-            if (geom.triMaterial[px] != geom.triMaterial[py]) return 1;
+            if ((px == kNoHit) != (py == kNoHit)) return true;
+            if (px == kNoHit) return false;
+            if (std::abs(m_depth[x] - m_depth[y]) > step ||
+                geom.triMaterial[px] != geom.triMaterial[py])
+              return true;
             // A crease (the top of a wall): shading normals more than ~25° apart (those of a
             // smooth tessellated curve turn far less between neighbouring samples).
-            if (px == py) return 0;
+            if (px == py) return false;
             const Vec3 nx = geom.shadingNormal(px, m_u[x], m_v[x]);
             const Vec3 ny = geom.shadingNormal(py, m_u[y], m_v[y]);
             const float lx = glm::length(nx), ly = glm::length(ny);
-            return lx > 0 && ly > 0 && std::abs(glm::dot(nx, ny)) < 0.9f * lx * ly ? 3 : 0;
+            return lx > 0 && ly > 0 && std::abs(glm::dot(nx, ny)) < 0.9f * lx * ly;
           };
           for (int r = 0; r < sv; ++r)
             for (int a = 0; a < su; ++a) {
               const size_t k = key(a, r);
               const int an = a + 1 == su ? 0 : a + 1, rn = r + 1 == sv ? 0 : r + 1;
-              if (const uint8_t m = differ(k, key(an, r)))
-                mask[size_t(r) * su + a] |= m, mask[size_t(r) * su + an] |= m;
-              if (const uint8_t m = differ(k, key(a, rn)))
-                mask[size_t(r) * su + a] |= m, mask[size_t(rn) * su + a] |= m;
+              if (differ(k, key(an, r))) mask[size_t(r) * su + a] = mask[size_t(r) * su + an] = 1;
+              if (differ(k, key(a, rn))) mask[size_t(r) * su + a] = mask[size_t(rn) * su + a] = 1;
             }
           uint32_t* sat = &m_edgeSat[size_t(d) * stride];
-          uint32_t* shadow = &m_shadowSat[size_t(d) * stride];
           for (int r = 0; r < sv; ++r) {
-            uint32_t row = 0, srow = 0;
+            uint32_t row = 0;
             for (int a = 0; a < su; ++a) {
-              const uint8_t m = mask[size_t(r) * su + a];
-              row += m & 1u;
-              srow += (m >> 1) & 1u;
-              const size_t o = size_t(r + 1) * (su + 1) + a + 1, up = size_t(r) * (su + 1) + a + 1;
-              sat[o] = sat[up] + row;
-              shadow[o] = shadow[up] + srow;
+              row += mask[size_t(r) * su + a];
+              sat[size_t(r + 1) * (su + 1) + a + 1] = sat[size_t(r) * (su + 1) + a + 1] + row;
             }
           }
           float* bm = &m_blockMax[size_t(d) * m_blockPerDir];
@@ -162,8 +152,8 @@ int wrapSpans(int a0, int a1, int n, int out[2][2]) {
 
 }  // namespace
 
-uint32_t HitMaps::count(const std::vector<uint32_t>& table, int dir, int a0, int a1, int b0,
-                        int b1) const {
+uint32_t HitMaps::edgeCount(int dir, int a0, int a1, int b0, int b1) const {
+  const std::vector<uint32_t>& table = m_edgeSat;
   const int su = m_grid.su(), sv = m_grid.sv();
   const uint32_t* sat = &table[size_t(dir) * size_t(su + 1) * size_t(sv + 1)];
   auto at = [&](int a, int b) { return sat[size_t(b) * (su + 1) + a]; };
@@ -177,14 +167,6 @@ uint32_t HitMaps::count(const std::vector<uint32_t>& table, int dir, int a0, int
       n += at(as[x][1], bs[y][1]) - at(as[x][0], bs[y][1]) - at(as[x][1], bs[y][0]) +
            at(as[x][0], bs[y][0]);
   return n;
-}
-
-uint32_t HitMaps::edgeCount(int dir, int a0, int a1, int b0, int b1) const {
-  return count(m_edgeSat, dir, a0, a1, b0, b1);
-}
-
-uint32_t HitMaps::shadowEdgeCount(int dir, int a0, int a1, int b0, int b1) const {
-  return count(m_shadowSat, dir, a0, a1, b0, b1);
 }
 
 float HitMaps::maxDepth(int dir, int a0, int a1, int b0, int b1) const {

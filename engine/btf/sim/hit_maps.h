@@ -64,19 +64,14 @@ class HitMaps {
   /// Edge samples of direction `dir` in the sample rectangle [a0, a1) × [b0, b1), wrapped
   /// periodically (any integers; a span wider than the map counts the whole map).
   uint32_t edgeCount(int dir, int a0, int a1, int b0, int b1) const;
-  /// The same over the edges that can bound a shadow when the direction is a light's: a hit
-  /// next to a miss, a depth step (a silhouette seen from the light) or a crease (at the foot
-  /// of a wall the map's taps reach up the wall). A material change alone changes the shading,
-  /// not the visibility.
-  uint32_t shadowEdgeCount(int dir, int a0, int a1, int b0, int b1) const;
   /// An upper bound of the hit depths of direction `dir` over the sample rectangle
   /// [a0, a1) × [b0, b1) (wrapped as edgeCount; the maximum over the blocks it touches of a
   /// pyramid of block maxima, 2 × 2 samples and coarser, at most 5 blocks a side; −∞ where all
   /// miss). A receiver at distance r along the light is lit by every map tap of the rectangle
   /// when this is ≤ r.
   float maxDepth(int dir, int a0, int a1, int b0, int b1) const;
-  /// Edge tables, shadow-edge tables and the block-maximum pyramid (~4/3 B).
-  static constexpr uint64_t kEdgeBytesPerSample = 10;
+  /// Edge tables and the block-maximum pyramid (~4/3 B).
+  static constexpr uint64_t kEdgeBytesPerSample = 6;
 
  private:
   size_t idx(int dir, int64_t s) const {
@@ -86,8 +81,7 @@ class HitMaps {
   int m_nDirs = 0;
   std::vector<uint32_t> m_prim;
   std::vector<float> m_depth, m_u, m_v;
-  std::vector<uint32_t> m_edgeSat;    // per direction (su + 1) × (sv + 1)
-  std::vector<uint32_t> m_shadowSat;  // the same, shadow edges only
+  std::vector<uint32_t> m_edgeSat;  // per direction (su + 1) × (sv + 1)
   struct BlockLevel {
     int nu, nv;     // blocks per side
     size_t offset;  // in a direction's block maxima
@@ -95,7 +89,6 @@ class HitMaps {
   std::vector<BlockLevel> m_blockLevels;
   size_t m_blockPerDir = 0;
   std::vector<float> m_blockMax;  // per direction, every level
-  uint32_t count(const std::vector<uint32_t>& sat, int dir, int a0, int a1, int b0, int b1) const;
 };
 
 /// The ray of a texel sample for direction ω: returns the hit and writes the signed distance of
