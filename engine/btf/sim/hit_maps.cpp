@@ -91,8 +91,8 @@ void HitMaps::buildEdgeTables(const TileGeometry& geom, const CancelToken* cance
             const uint32_t px = m_prim[x], py = m_prim[y];
             if ((px == kNoHit) != (py == kNoHit)) return true;
             if (px == kNoHit) return false;
-            if (std::abs(m_depth[x] - m_depth[y]) > step ||
-                geom.triMaterial[px] != geom.triMaterial[py])
+            if (geom.triMaterial[px] != geom.triMaterial[py] ||
+                std::abs(m_depth[x] - m_depth[y]) > step)
               return true;
             // A crease (the top of a wall): shading normals more than ~25° apart (those of a
             // smooth tessellated curve turn far less between neighbouring samples).
@@ -153,9 +153,8 @@ int wrapSpans(int a0, int a1, int n, int out[2][2]) {
 }  // namespace
 
 uint32_t HitMaps::edgeCount(int dir, int a0, int a1, int b0, int b1) const {
-  const std::vector<uint32_t>& table = m_edgeSat;
   const int su = m_grid.su(), sv = m_grid.sv();
-  const uint32_t* sat = &table[size_t(dir) * size_t(su + 1) * size_t(sv + 1)];
+  const uint32_t* sat = &m_edgeSat[size_t(dir) * size_t(su + 1) * size_t(sv + 1)];
   auto at = [&](int a, int b) { return sat[size_t(b) * (su + 1) + a]; };
   if (a0 >= 0 && b0 >= 0 && a1 <= su && b1 <= sv)  // inside the map: no wrap
     return a1 > a0 && b1 > b0 ? at(a1, b1) - at(a0, b1) - at(a1, b0) + at(a0, b0) : 0u;
@@ -179,7 +178,7 @@ float HitMaps::maxDepth(int dir, int a0, int a1, int b0, int b1) const {
   } else {
     na = wrapSpans(a0, a1, su, as), nb = wrapSpans(b0, b1, sv, bs);
   }
-  // The finest level at which the rectangle spans at most 8 blocks a side (an upper bound all
+  // The finest level at which the rectangle touches at most 5 blocks a side (an upper bound all
   // the same: a block's maximum covers the rectangle's part of it).
   const int span = std::max(std::min(a1 - a0, su), std::min(b1 - b0, sv));
   size_t k = 0;
