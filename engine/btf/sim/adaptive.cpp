@@ -126,6 +126,24 @@ struct Scratch {
   std::vector<int> active, next;
 };
 
+// Calls f(k, o) for every pair of horizontally or vertically neighbouring cells of a K×K grid.
+template <class F>
+void forNeighbourPairs(int K, F f) {
+  for (int r = 0; r < K; ++r)
+    for (int c = 0; c < K; ++c) {
+      const int k = r * K + c;
+      if (c + 1 < K) f(k, k + 1);
+      if (r + 1 < K) f(k, k + K);
+    }
+}
+
+// Cell (c, r) of a K×K grid, or one of its four neighbours, is hot.
+inline bool hotOrNeighbour(const std::vector<uint8_t>& hot, int K, int c, int r) {
+  const size_t k = size_t(r) * K + size_t(c);
+  return hot[k] || (c > 0 && hot[k - 1]) || (c + 1 < K && hot[k + 1]) ||
+         (r > 0 && hot[k - size_t(K)]) || (r + 1 < K && hot[k + size_t(K)]);
+}
+
 inline float lum(const Rgb& c) {
   return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
 }
@@ -430,9 +448,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   sc.samplesUsed.assign(size_t(nL), 4);
   sc.finalLevel.assign(size_t(nL), 0);
   sc.err.assign(size_t(nL), 0.f);
-  int closedLights = 0;
-  for (int l = 0; l < nL; ++l) closedLights += sc.lit[size_t(l)] || sc.flagged[size_t(l)];
-  bool closed = closedLights > 0;
+  bool closed = false;  // some light may take the closed form
+  for (int l = 0; l < nL; ++l) closed = closed || sc.lit[size_t(l)] || sc.flagged[size_t(l)];
   for (const Sample& S : map) closed = closed && (!S.ok || S.cls >= 0);
   int gFinal = m_mapLevel, leaves = int(map.size());
   sc.geoExtra.clear();
@@ -445,25 +462,16 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     for (int L = m_mapLevel; L < m_maxLevel && closed; ++L) {
       const int K = 2 << L, n = K * K;
       sc.hot.assign(size_t(n), 0);
-      for (int r = 0; r < K; ++r)
-        for (int c = 0; c < K; ++c) {
-          const int k = r * K + c;
-          for (const int o : {k + 1, k + K}) {
-            if ((o == k + 1 && c + 1 == K) || (o == k + K && r + 1 == K)) continue;
-            if ((sc.exists[size_t(k)] || sc.exists[size_t(o)]) &&
-                face(sc.rep[size_t(k)]) != face(sc.rep[size_t(o)]))
-              sc.hot[size_t(k)] = sc.hot[size_t(o)] = 1;
-          }
-        }
+      forNeighbourPairs(K, [&](int k, int o) {
+        if ((sc.exists[size_t(k)] || sc.exists[size_t(o)]) &&
+            face(sc.rep[size_t(k)]) != face(sc.rep[size_t(o)]))
+          sc.hot[size_t(k)] = sc.hot[size_t(o)] = 1;
+      });
       bool any = false;
       for (int r = 0; r < K && closed; ++r)
         for (int c = 0; c < K && closed; ++c) {
           const int k = r * K + c;
-          if (!sc.exists[size_t(k)]) continue;
-          if (!(sc.hot[size_t(k)] || (c > 0 && sc.hot[size_t(k - 1)]) ||
-                (c + 1 < K && sc.hot[size_t(k + 1)]) || (r > 0 && sc.hot[size_t(k - K)]) ||
-                (r + 1 < K && sc.hot[size_t(k + K)])))
-            continue;
+          if (!sc.exists[size_t(k)] || !hotOrNeighbour(sc.hot, K, c, r)) continue;
           buildChildren(L, k);
           any = true;
           leaves += 3;
@@ -508,44 +516,36 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       if (sc.rep[size_t(k)]->ok) sc.area[size_t(sc.rep[size_t(k)]->cls)] += 1.0f;
     sc.facePairs.clear();
     auto face = [](const Sample* S) { return S->ok ? S->cls : -1; };
-    for (int r = 0; r < K; ++r)
-      for (int c = 0; c < K; ++c) {
-        const int k = r * K + c;
-        for (const int o : {k + 1, k + K}) {
-          if ((o == k + 1 && c + 1 == K) || (o == k + K && r + 1 == K)) continue;
-          if (!sc.exists[size_t(k)] && !sc.exists[size_t(o)]) continue;
-          int a = face(sc.rep[size_t(k)]), b = face(sc.rep[size_t(o)]);
-          if (a == b) continue;
-          if (a > b) std::swap(a, b);
-          bool found = false;
-          for (auto& fp : sc.facePairs)
-            if (fp[0] == a && fp[1] == b) ++fp[2], found = true;
-          if (!found) sc.facePairs.push_back({a, b, 1});
-        }
-      }
+    forNeighbourPairs(K, [&](int k, int o) {
+      if (!sc.exists[size_t(k)] && !sc.exists[size_t(o)]) return;
+      int a = face(sc.rep[size_t(k)]), b = face(sc.rep[size_t(o)]);
+      if (a == b) return;
+      if (a > b) std::swap(a, b);
+      for (auto& fp : sc.facePairs)
+        if (fp[0] == a && fp[1] == b) return void(++fp[2]);
+      sc.facePairs.push_back({a, b, 1});
+    });
   }
   auto closedForm = [&](int l) {
     const int K = 2 << gFinal, n = K * K;
     const int nFaces = int(sc.faces.size());
-    {
-      Rgb sum(0);
-      for (int f = 0; f < nFaces; ++f) {
-        if (sc.area[size_t(f)] == 0) continue;
-        sum += faceValue(f, l) * sc.area[size_t(f)];
-        ++evals;
-      }
-      sum /= float(n);
-      out[3 * l] = sum.x, out[3 * l + 1] = sum.y, out[3 * l + 2] = sum.z;
-      double d2 = 0;
-      for (const auto& fp : sc.facePairs) {
-        const float ya = fp[0] < 0 ? 0.0f : lum(faceValue(fp[0], l));
-        const float yb = lum(faceValue(fp[1], l));
-        d2 += double(fp[2]) * double(ya - yb) * double(ya - yb);
-      }
-      sc.err[size_t(l)] = float(0.5 * std::sqrt(d2) / double(n));
-      sc.finalLevel[size_t(l)] = gFinal;
-      sc.samplesUsed[size_t(l)] = leaves;
+    Rgb sum(0);
+    for (int f = 0; f < nFaces; ++f) {
+      if (sc.area[size_t(f)] == 0) continue;
+      sum += faceValue(f, l) * sc.area[size_t(f)];
+      ++evals;
     }
+    sum /= float(n);
+    out[3 * l] = sum.x, out[3 * l + 1] = sum.y, out[3 * l + 2] = sum.z;
+    double d2 = 0;
+    for (const auto& fp : sc.facePairs) {
+      const float ya = fp[0] < 0 ? 0.0f : lum(faceValue(fp[0], l));
+      const float yb = lum(faceValue(fp[1], l));
+      d2 += double(fp[2]) * double(ya - yb) * double(ya - yb);
+    }
+    sc.err[size_t(l)] = float(0.5 * std::sqrt(d2) / double(n));
+    sc.finalLevel[size_t(l)] = gFinal;
+    sc.samplesUsed[size_t(l)] = leaves;
   };
   if (closed)
     for (int l = 0; l < nL; ++l)
@@ -665,10 +665,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
           const int k = r * K + c;
           if (!real[k]) continue;
           bool s = false;
-          if (byValue)
-            s = sc.hot[size_t(k)] || (c > 0 && sc.hot[size_t(k - 1)]) ||
-                (c + 1 < K && sc.hot[size_t(k + 1)]) || (r > 0 && sc.hot[size_t(k - K)]) ||
-                (r + 1 < K && sc.hot[size_t(k + K)]);
+          if (byValue) s = hotOrNeighbour(sc.hot, K, c, r);
           // The cell's quadrant (level 0: the cell itself).
           const unsigned quadrant = 1u << ((c * 2 / K) + 2 * (r * 2 / K));
           if (!s && byEdges && L == 0) s = edge || (flags & quadrant);
