@@ -123,6 +123,20 @@ struct Scratch {
   std::vector<int> samplesUsed, finalLevel, keep;
   std::vector<float> err;        // per light: error estimate of its last level
   std::vector<uint8_t> flagged;  // per light: the quadrants whose footprint holds a shadow edge
+  // Per light: the faces (bits 0..15; bit 16: no hit) lit wherever they lie in the texel.
+  std::vector<uint32_t> certified;
+  // Per face: the plane of its samples (offset along its geometric normal), or none.
+  std::vector<float> faceOffset;
+  std::vector<uint8_t> facePlanar;
+  std::vector<float> faceLo, faceHi;
+  // Per level up to the face refinement's and cell: the faces its leaves see (bits as above).
+  std::vector<uint32_t> cellFaces[AdaptiveStats::kLevels];
+  // Per active light (slot) and cell: the face of the cell's sample (−1: none, −2: unclassified).
+  std::vector<int8_t> cellFace, nextFace;
+  // Per cell of the face refinement: the level of the cell its sample covers; likewise per
+  // active light and cell.
+  std::vector<int8_t> repLevel, nextRepLevel, cellLevel, nextLevel;
+  std::vector<std::pair<const Sample*, Rgb>> merged;
   std::vector<int> active, next;
 };
 
@@ -270,6 +284,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     }
   // An edge just outside the map's samples (a sliver they all missed): the view's edge table
   // over the texel and a guard band of one map sample.
+  const bool edgeBySamples = edge;
   if (!edge && m_maps.hasEdgeTables())
     edge = m_maps.edgeCount(view, i * Km - 1, (i + 1) * Km + 1, j * Km - 1, (j + 1) * Km + 1) > 0;
 
@@ -356,6 +371,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   // samples take no visibility test (at heights within the map samples' range, the footprint's).
   sc.lit.assign(size_t(nL), 0);
   const float zTol = 1e-6f * float(m_texelSize);
+  const float planeTol = 1e-3f * float(m_texelSize);
   for (int l = 0; l < nL && m_shadowEdges && okCount; ++l) {
     const Rect r =
         footprint(0.0f, 1.0f, 0.0f, 1.0f, lightSlopeX(l), lightSlopeY(l), tlo, thi, 1.0f);
@@ -381,6 +397,14 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     sc.classValue.resize(size_t(kMaxClasses) * nL);
   }
   sc.notLit.assign(size_t(nL), 0);
+  constexpr uint32_t kMissBit = 1u << kMaxClasses;
+  sc.certified.assign(size_t(nL), kMissBit);
+  // A sample on the plane its face's samples shared when the face was certified.
+  auto onPlane = [&](const Sample& S) {
+    const size_t c = size_t(S.cls);
+    return c < sc.facePlanar.size() && sc.facePlanar[c] &&
+           std::abs(glm::dot(sc.faces[c].ng, S.s.p) - sc.faceOffset[c]) <= planeTol;
+  };
   auto faceValue = [&](int c, int l) -> const Rgb& {
     const size_t k = size_t(c) * size_t(nL) + size_t(l);
     if (sc.classStamp[k] != sc.stamp) {
@@ -394,6 +418,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     const Rgb f = S.cls >= 0 ? faceValue(S.cls, l) : m_direct.unshadowed(S.s, l);
     if (f.x == 0 && f.y == 0 && f.z == 0) return f;
     if (sc.lit[size_t(l)] && S.s.p.z >= tlo - zTol && S.s.p.z <= thi + zTol) return f;
+    if (S.cls >= 0 && (sc.certified[size_t(l)] >> S.cls & 1u) && onPlane(S)) return f;
     bool decided = true;
     const float v = m_direct.visibility(S.s, l, sc.flagged[size_t(l)] != 0, &decided);
     if (!decided || v < 1.0f) sc.notLit[size_t(l)] = 1;
@@ -457,6 +482,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     const int n0 = int(map.size());
     sc.rep.resize(size_t(n0));
     sc.exists.assign(size_t(n0), 1);
+    sc.repLevel.assign(size_t(n0), int8_t(m_mapLevel));
     for (int k = 0; k < n0; ++k) sc.rep[size_t(k)] = &map[size_t(k)];
     auto face = [](const Sample* S) { return S->ok ? S->cls : kMaxClasses; };
     for (int L = m_mapLevel; L < m_maxLevel && closed; ++L) {
@@ -490,18 +516,22 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       const int K2 = 2 * K, n2 = K2 * K2;
       sc.nextRep.resize(size_t(n2));
       sc.nextExists.assign(size_t(n2), 0);
+      sc.nextRepLevel.resize(size_t(n2));
       for (int cj = 0; cj < K2; ++cj)
         for (int ci = 0; ci < K2; ++ci) {
           const int k = (cj / 2) * K + ci / 2, c2 = cj * K2 + ci;
           if (sc.exists[size_t(k)] && sc.built[L][size_t(k)]) {
             sc.nextRep[size_t(c2)] = &sc.levels[L + 1][size_t(c2)];
             sc.nextExists[size_t(c2)] = 1;
+            sc.nextRepLevel[size_t(c2)] = int8_t(L + 1);
           } else {
             sc.nextRep[size_t(c2)] = sc.rep[size_t(k)];
+            sc.nextRepLevel[size_t(c2)] = sc.repLevel[size_t(k)];
           }
         }
       std::swap(sc.rep, sc.nextRep);
       std::swap(sc.exists, sc.nextExists);
+      std::swap(sc.repLevel, sc.nextRepLevel);
       gFinal = L + 1;
     }
   }
@@ -526,6 +556,100 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       sc.facePairs.push_back({a, b, 1});
     });
   }
+  // Faces lit wherever they lie in the texel, per light: a flat face (its samples on one plane)
+  // whose receivers over the whole texel — the plane's heights at the texel's corners, within
+  // the tile's — have nothing above the lowest of them in the light's map, like the lit test
+  // above; or a face the light does not reach (its value is 0 either way). Their samples take no
+  // visibility test, and the light's cells that hold only such faces stop refining: the light's
+  // value is then Σ area fraction × the mean of its samples per face (the faces' areas from the
+  // refinement above).
+  sc.facePlanar.clear();
+  bool anyCertified = false;
+  if (closed && m_shadowEdges && edge == edgeBySamples) {
+    const int nFaces = int(sc.faces.size());
+    sc.facePlanar.assign(size_t(nFaces), 1);
+    sc.faceOffset.assign(size_t(nFaces), 0.f);
+    sc.faceLo.assign(size_t(nFaces), INFINITY);
+    sc.faceHi.assign(size_t(nFaces), -INFINITY);
+    for (int f = 0; f < nFaces; ++f)
+      sc.faceOffset[size_t(f)] = glm::dot(sc.faces[size_t(f)].ng, sc.faces[size_t(f)].s.p);
+    auto onFacePlane = [&](const Sample& S) {
+      if (S.ok && S.cls >= 0 && !onPlane(S)) sc.facePlanar[size_t(S.cls)] = 0;
+    };
+    for (const Sample& S : map) onFacePlane(S);
+    for (const auto& e : sc.geoExtra) onFacePlane(sc.levels[e[0]][size_t(e[1])]);
+    // The plane's heights under the texel's corners, seen along the view.
+    const float zmin = m_tracer.geometry().zmin, zmax = m_tracer.geometry().zmax;
+    for (int f = 0; f < nFaces; ++f) {
+      const Vec3 n = sc.faces[size_t(f)].ng;
+      const float nv = glm::dot(n, Vec3(wv));
+      if (!sc.facePlanar[size_t(f)] || std::abs(nv) < 1e-3f) {
+        sc.facePlanar[size_t(f)] = 0;
+        continue;
+      }
+      for (int c = 0; c < 4; ++c) {
+        const float X = float((i + (c & 1)) * g.Lx / g.nu), Y = float((j + (c >> 1)) * g.Ly / g.nv);
+        const float z = (sc.faceOffset[size_t(f)] - n.x * X - n.y * Y) / nv * float(wv.z);
+        sc.faceLo[size_t(f)] = std::min(sc.faceLo[size_t(f)], z);
+        sc.faceHi[size_t(f)] = std::max(sc.faceHi[size_t(f)], z);
+      }
+      sc.faceLo[size_t(f)] = std::max(sc.faceLo[size_t(f)], zmin);
+      sc.faceHi[size_t(f)] = std::min(sc.faceHi[size_t(f)], zmax);
+      if (sc.faceLo[size_t(f)] > sc.faceHi[size_t(f)]) sc.facePlanar[size_t(f)] = 0;
+    }
+    // The faces each cell's leaves see, level by level up to the refinement's.
+    {
+      const int K = 2 << gFinal;
+      for (int L = 0; L <= gFinal; ++L) sc.cellFaces[L].assign(size_t(4) << (2 * L), 0u);
+      for (int k = 0; k < K * K; ++k) {
+        const Sample* S = sc.rep[size_t(k)];
+        const uint32_t bit = S->ok ? 1u << S->cls : kMissBit;
+        const int c = k % K, r = k / K;
+        for (int L = 0; L <= gFinal; ++L) {
+          const int sh = gFinal - L, KL = 2 << L;
+          sc.cellFaces[L][size_t(r >> sh) * KL + size_t(c >> sh)] |= bit;
+        }
+      }
+    }
+    uint32_t present = 0;
+    for (uint32_t m : sc.cellFaces[0]) present |= m;
+    for (int l = 0; l < nL; ++l) {
+      if (sc.lit[size_t(l)]) continue;
+      uint32_t cert = kMissBit;
+      for (int f = 0; f < nFaces; ++f) {
+        if (!(present >> f & 1u)) continue;
+        const Rgb& u = faceValue(f, l);
+        if (u.x == 0 && u.y == 0 && u.z == 0) {
+          cert |= 1u << f;
+          continue;
+        }
+        if (!sc.facePlanar[size_t(f)]) continue;
+        const float zlo = sc.faceLo[size_t(f)], zhi = sc.faceHi[size_t(f)];
+        const Rect r =
+            footprint(0.0f, 1.0f, 0.0f, 1.0f, lightSlopeX(l), lightSlopeY(l), zlo, zhi, 1.0f);
+        if (m_maps.maxDepth(l, r.a0 - 1, r.a1 + 1, r.b0 - 1, r.b1 + 1) <=
+            zlo * m_invCos[size_t(l)] + m_litMargin)
+          cert |= 1u << f;
+      }
+      sc.certified[size_t(l)] = cert;
+      if ((present & ~cert) == 0) sc.lit[size_t(l)] = 2;  // every face it lights is lit
+      anyCertified = anyCertified || cert != kMissBit;
+    }
+  }
+  // Cell k of level L of a light holds only faces the light lights wherever they lie.
+  auto settledCell = [&](int l, int L, int k, int face) {
+    const uint32_t cert = sc.certified[size_t(l)];
+    if (cert == kMissBit) return false;
+    const uint32_t bit = face >= 0 ? 1u << face : face == -1 ? kMissBit : 0xffffffffu;
+    uint32_t m = bit;
+    if (L <= gFinal) {
+      m |= sc.cellFaces[L][size_t(k)];
+    } else {
+      const int K = 2 << L, sh = L - gFinal, KF = 2 << gFinal;
+      m |= sc.cellFaces[gFinal][size_t((k / K) >> sh) * KF + size_t((k % K) >> sh)];
+    }
+    return (m & ~cert) == 0;
+  };
   auto closedForm = [&](int l) {
     const int K = 2 << gFinal, n = K * K;
     const int nFaces = int(sc.faces.size());
@@ -562,6 +686,9 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   sc.cellY.assign(size_t(nA0) * 4, 0.f);
   sc.cellRgb.assign(size_t(nA0) * 4, Rgb(0));
   sc.cellReal.assign(size_t(nA0) * 4, 1);
+  sc.cellFace.assign(size_t(nA0) * 4, int8_t(-1));
+  sc.cellLevel.assign(size_t(nA0) * 4, int8_t(0));
+  auto faceOf = [](const Sample& S) { return int8_t(!S.ok ? -1 : S.cls >= 0 ? S.cls : -2); };
   // Light by light: one light's shadow-map taps for the four samples share cache lines.
   for (int q = 0; q < 4; ++q) evals += sc.levels[0][size_t(q)].ok ? nA0 : 0;
   for (int a = 0; a < nA0; ++a)
@@ -569,6 +696,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       const int l = sc.active[size_t(a)];
       const Sample& S = sc.levels[0][size_t(q)];
       if (!S.ok) continue;
+      sc.cellFace[size_t(a) * 4 + size_t(q)] = faceOf(S);
       uint8_t open;
       const Rgb c = contrib(S, l, &open);
       sc.cellReal[size_t(a) * 4 + size_t(q)] = uint8_t(1 + open);
@@ -579,10 +707,42 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   auto threshold = [&](float mean) { return tol * std::max(std::abs(mean), m_floor); };
 
   // Level by level: each active light splits the cells that need it; the others stop.
-  auto finishLight = [&](int l, const Rgb* cells, int n) {
+  auto finishLight = [&](int l, const Rgb* cells, const int8_t* levels, int n) {
     Rgb sum(0);
-    for (int k = 0; k < n; ++k) sum += cells[k];
-    sum /= float(n);
+    if (closed && sc.certified[size_t(l)] != kMissBit) {
+      // The light's cells hold only faces it lights did not refine: over the finer of the
+      // light's grid and the face refinement's, each cell takes the sample that covers the
+      // smaller cell — the light's where it refined (shadow edges), the refinement's where it
+      // did (the faces' outlines; a visibility test only off the lit faces).
+      const int K = int(std::lround(std::sqrt(double(n)))), KF = 2 << gFinal;
+      const int N = std::max(K, KF);
+      sc.merged.clear();
+      for (int y = 0; y < N; ++y)
+        for (int x = 0; x < N; ++x) {
+          const size_t lc = size_t(y * K / N) * K + size_t(x * K / N);
+          const size_t fc = size_t(y * KF / N) * KF + size_t(x * KF / N);
+          if (levels[lc] >= sc.repLevel[fc]) {
+            sum += cells[lc];
+            continue;
+          }
+          const Sample* S = sc.rep[fc];
+          if (!S->ok) continue;
+          const Rgb* v = nullptr;
+          for (const auto& m : sc.merged)
+            if (m.first == S) v = &m.second;
+          if (!v) {
+            uint8_t open;
+            sc.merged.push_back({S, contrib(*S, l, &open)});
+            ++evals;
+            v = &sc.merged.back().second;
+          }
+          sum += *v;
+        }
+      sum /= float(N * N);
+    } else {
+      for (int k = 0; k < n; ++k) sum += cells[k];
+      sum /= float(n);
+    }
     out[3 * l] = sum.x, out[3 * l + 1] = sum.y, out[3 * l + 2] = sum.z;
   };
   for (int L = 0; !sc.active.empty(); ++L) {
@@ -663,7 +823,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       for (int r = 0; r < K; ++r)
         for (int c = 0; c < K; ++c) {
           const int k = r * K + c;
-          if (!real[k]) continue;
+          if (!real[k] || (anyCertified && settledCell(l, L, k, sc.cellFace[size_t(a) * n + k])))
+            continue;
           bool s = false;
           if (byValue) s = hotOrNeighbour(sc.hot, K, c, r);
           // The cell's quadrant (level 0: the cell itself).
@@ -689,7 +850,9 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     }
     // The lights that stop here keep this level's estimate.
     for (int a = 0; a < nA; ++a)
-      if (!sc.kept[size_t(a)]) finishLight(sc.active[size_t(a)], &sc.cellRgb[size_t(a) * n], n);
+      if (!sc.kept[size_t(a)])
+        finishLight(sc.active[size_t(a)], &sc.cellRgb[size_t(a) * n], &sc.cellLevel[size_t(a) * n],
+                    n);
     if (keep.empty()) break;
 
     // 2. The next level's samples where some light splits a cell (fresh camera rays beyond
@@ -710,6 +873,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     sc.nextY.assign(size_t(nK) * n2, 0.f);
     sc.nextRgb.assign(size_t(nK) * n2, Rgb(0));
     sc.nextReal.assign(size_t(nK) * n2, 0);
+    sc.nextFace.assign(size_t(nK) * n2, int8_t(-1));
+    sc.nextLevel.assign(size_t(nK) * n2, int8_t(L + 1));
     for (int b = 0; b < nK; ++b) {
       const int a = keep[size_t(b)];
       const int l = sc.active[size_t(a)];
@@ -722,6 +887,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
           if (!sc.split[src]) {
             sc.nextY[dst] = sc.cellY[src];
             sc.nextRgb[dst] = sc.cellRgb[src];
+            sc.nextFace[dst] = sc.cellFace[src];
+            sc.nextLevel[dst] = sc.cellLevel[src];
             continue;
           }
           sc.nextReal[dst] = 1;
@@ -730,9 +897,11 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
             sc.nextY[dst] = sc.cellY[src];
             sc.nextRgb[dst] = sc.cellRgb[src];
             sc.nextReal[dst] = sc.cellReal[src];
+            sc.nextFace[dst] = sc.cellFace[src];
             continue;
           }
           if (!cs.ok) continue;
+          sc.nextFace[dst] = faceOf(cs);
           uint8_t open;
           const Rgb c = contrib(cs, l, &open);
           sc.nextReal[dst] = uint8_t(1 + open);
@@ -749,6 +918,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     std::swap(sc.cellY, sc.nextY);
     std::swap(sc.cellRgb, sc.nextRgb);
     std::swap(sc.cellReal, sc.nextReal);
+    std::swap(sc.cellFace, sc.nextFace);
+    std::swap(sc.cellLevel, sc.nextLevel);
   }
 
   if (m_gather) {

@@ -10,6 +10,9 @@
 //    lies above the lowest) takes no visibility test; over flat faces its value is closed form:
 //    Σ area fraction × unshadowed value per face, the area fractions from one refinement per
 //    (texel, view) where neighbouring samples see different faces;
+//  - the same test face by face (a flat face's plane over the whole texel): samples on a lit
+//    face take no visibility test and cells holding only lit faces do not split; a light with
+//    every face lit takes the closed form;
 //  - a shadow edge in the footprint of a quadrant (the light's edge table where its map
 //    holds the quadrant's receivers, with something above them) takes that quadrant to the
 //    map's level, and there the cells the edge may cross one level further; the light's
