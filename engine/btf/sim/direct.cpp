@@ -111,6 +111,17 @@ float DirectIllumination::mapVisibility(int l, const Vec3& p, float cn, float ng
     // jittered within their cells, so only the neighbouring cells' lie on both sides of p.
     auto wrap = [](int v, int n) { return v < 0 ? v + n : v >= n ? v - n : v; };
     const int ci = tx < 0.5f ? i0 : i1, cj = ty < 0.5f ? j0 : j1;
+    // Every tap lit: the 2 × 2 blocks holding the 3 × 3 taps have their maxima below p.
+    const float* bm = m_maps.blockMaxRow(l);
+    if (bm && !(su & 1) && !(sv & 1)) {
+      const size_t bw = size_t(su >> 1);
+      const size_t r0 = size_t(wrap(cj - 1, sv) >> 1) * bw, r1 = size_t(wrap(cj + 1, sv) >> 1) * bw;
+      const size_t c0 = size_t(wrap(ci - 1, su) >> 1), c1 = size_t(wrap(ci + 1, su) >> 1);
+      if (rb >= bm[r0 + c0] && rb >= bm[r0 + c1] && rb >= bm[r1 + c0] && rb >= bm[r1 + c1]) {
+        *decided = true;
+        return 1.0f;
+      }
+    }
     const float first = lit(ci, cj, size_t(cj) * su + ci);
     for (int b = -1; b <= 1; ++b) {
       const int jj = wrap(cj + b, sv);

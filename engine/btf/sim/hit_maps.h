@@ -48,6 +48,12 @@ class HitMaps {
   float bv(int dir, int64_t s) const { return m_v[idx(dir, s)]; }
   const uint32_t* primRow(int dir) const { return &m_prim[idx(dir, 0)]; }
   const float* depthRow(int dir) const { return &m_depth[idx(dir, 0)]; }
+  /// The finest block maxima of direction `dir`'s depths (2 × 2 samples each, su/2 per row);
+  /// null without edge tables.
+  const float* blockMaxRow(int dir) const {
+    return m_blockMax.empty() ? nullptr
+                              : &m_blockMax[size_t(dir) * m_blockPerDir + m_blockLevels[0].offset];
+  }
   uint64_t raysTraced() const { return uint64_t(m_nDirs) * uint64_t(m_grid.samples()); }
 
   /// Texel-resolution visibility map of a direction: per texel, the fraction of its samples that
