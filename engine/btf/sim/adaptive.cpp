@@ -369,7 +369,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   // Lights that light every receiver of the texel: nothing in the map over the receivers'
   // footprint lies above the lowest of them (the flat top of a wall, an open floor). Their
   // samples take no visibility test (at heights within the map samples' range, the footprint's).
-  sc.lit.assign(size_t(nL), 0);
+  // Without self-shadowing every light lights every receiver.
+  sc.lit.assign(size_t(nL), m_direct.settings().shadows == ShadowMode::None && okCount ? 1 : 0);
   const float zTol = 1e-6f * float(m_texelSize);
   const float planeTol = 1e-3f * float(m_texelSize);
   for (int l = 0; l < nL && m_shadowEdges && okCount; ++l) {
