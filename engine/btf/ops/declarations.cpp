@@ -99,9 +99,9 @@ Opts effectOptions() {
       in("bounces", 0, 0, 64, "P: reflections per path (1 = direct only; 0 = from the plan)"),
       fl("epsilon", 0.01, 1e-6, 0.5, "planner: energy fraction below which an order is dropped"),
       flag("edge_cells",
-           "adaptive sampling: at the 4×4 level also split every cell whose footprint holds a "
-           "geometric edge (slivers every sample missed; slower; cells a shadow edge may cross "
-           "always split)"),
+           "adaptive sampling: also split every cell whose footprint holds a geometric edge, at "
+           "the 4×4 level and in the shared refinement of the faces' areas (slivers every "
+           "sample missed; slower; cells a shadow edge may cross always split)"),
       excl(fl("tolerance", 0.01, 0, 1,
               "adaptive sampling: a value refines while its estimated error exceeds this "
               "fraction of max(value, floor)")),

@@ -498,7 +498,9 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       for (int r = 0; r < K && closed; ++r)
         for (int c = 0; c < K && closed; ++c) {
           const int k = r * K + c;
-          if (!sc.exists[size_t(k)] || !hotOrNeighbour(sc.hot, K, c, r)) continue;
+          if (!sc.exists[size_t(k)] || !(hotOrNeighbour(sc.hot, K, c, r) ||
+                                         (m_settings.edgeCells && edge && cellEdge(L, k))))
+            continue;
           buildChildren(L, k);
           any = true;
           leaves += 3;

@@ -21,7 +21,8 @@
 //  - beyond, while the light's error estimate (from neighbouring-cell differences) exceeds
 //    tolerance × max(value, floor), the cells that differ from a neighbour, and their four
 //    neighbours, split; finer cells trace camera rays once per (texel, view), shared by every
-//    light; `edgeCells` also splits the map-level cells whose footprint holds a geometric edge.
+//    light; `edgeCells` also splits the map-level cells whose footprint holds a geometric edge,
+//    and the face refinement's cells likewise.
 // Samples of one flat face (material and normals shared) share their unshadowed value.
 // docs/conventions.md ("Tile and texels") states the rules and thresholds.
 // Sample positions depend on (seed, texel, level, stratum) only — not on the view, the thread or
@@ -43,7 +44,8 @@ struct AdaptiveSettings {
   int maxK = 8;             // finest level: maxK × maxK samples (a power of two, 2..64)
   float tolerance = 0.01f;  // estimated error per value, relative to max(value, floor)
   /// At the map's level, also split every cell whose footprint holds an edge of the view's edge
-  /// table (geometric slivers that every map sample missed; shadow-edge cells always split).
+  /// table (geometric slivers that every map sample missed; shadow-edge cells always split);
+  /// the face refinement (closed-form values' areas) does the same.
   bool edgeCells = false;
 };
 
