@@ -164,6 +164,30 @@ TEST(Adaptive, BoxAndShadowEdgesAreExactAreaFractions) {
   }
 }
 
+TEST(Adaptive, WithoutSelfShadowingTexelsAreExactAreaFractions) {
+  // The box above with self-shadowing off: every light lights every receiver and the values are
+  // the closed form — the top 0.8/π, the plane 0.2/π wherever it is seen, in the box's shadow
+  // too; at θi = 80° as at 45°.
+  const Scene s = test::sceneFromJson(boxScene(0.2));
+  auto lit = [](double x, double y) {
+    return x > x0 && x < x1 && y > y0 && y < y1 ? 0.8 / kPi : 0.2 / kPi;
+  };
+  for (int maxK : {8, 64}) {
+    SimOptions o = adaptiveOptions(maxK, 1e-4f, ShadowMode::Map);
+    o.plan.selfShadowing = Toggle::Off;  // the plan's effects: renderPair(…, true)
+    SimulationJob job(s, o);
+    for (double theta : {45.0, 80.0}) {
+      SCOPED_TRACE("max-spp " + std::to_string(maxK) + ", θi " + std::to_string(theta));
+      const auto img = job.renderPair(dir(0, 0), dir(theta, 30), int(kTexels), int(kTexels), true);
+      // The box's outline is placed to the finest grid: 3.4 % in the worst texel at 8 × 8 (a
+      // stratified estimate of its area fraction), 0.3 % at 64 × 64.
+      const double e = worstTexelError(img, lit);
+      std::printf("  max-spp %d, θi %.0f°: worst texel %.3f %%\n", maxK, theta, 100 * e);
+      EXPECT_LT(e, maxK == 8 ? 0.05 : 0.005);
+    }
+  }
+}
+
 // Every value of a run: [texel][view][light][rgb].
 std::vector<float> runAll(const Scene& s, SimOptions o, SimReport* rep = nullptr) {
   o.progress = false;
