@@ -451,10 +451,18 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
                   " free";
   }
 
-  // Time: calibrate on this scene — hit maps and the kernels on a coarse 8×8 grid with the same
-  // directions, materials and plan; cost per (sample, view) scales with nL.
-  const int cal = 8;
-  SampleGrid g{cal, cal, m_adaptive ? m_mapSpp : 1, m_scene.Lx, m_scene.Ly, m_opt.seed};
+  // Time: calibrate on this scene — hit maps and the kernels with the same directions, materials
+  // and plan on a coarser grid: the run's own up to 32 × 32 texels when adaptive (the
+  // refinement depends on the texel size; fewer while the calibration's maps would pass
+  // 256 MiB), else 8 × 8; cost per (sample, view) scales with nL.
+  int calMax = 32;
+  while (calMax > 8 && double(calMax) * calMax * m_mapSpp * m_mapSpp * nD *
+                               (HitMaps::kBytesPerSample + HitMaps::kEdgeBytesPerSample) >
+                           double(256 << 20))
+    calMax /= 2;
+  const int calU = m_adaptive ? std::min(m_opt.nu, calMax) : 8;
+  const int calV = m_adaptive ? std::min(m_opt.nv, calMax) : 8;
+  SampleGrid g{calU, calV, m_adaptive ? m_mapSpp : 1, m_scene.Lx, m_scene.Ly, m_opt.seed};
   HitMaps maps;
   auto t0 = Clock::now();
   withThreads(1, [&] {
@@ -466,7 +474,10 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
   const double threads = std::max(1, e.threads);
   const ShadowMode mode = pl.selfShadowing ? m_opt.shadows : ShadowMode::None;
   std::vector<float> buf(size_t(nD) * 3);
-  const int calls = std::min(64, nD * 4);
+  // Kernel calls spread over the grid's texels and the views (hashed): the adaptive cost of a
+  // (texel, view) varies tenfold between a flat texel and one on an edge.
+  const int calls =
+      m_adaptive ? int(std::min<int64_t>(1024, int64_t(nD) * calU * calV)) : std::min(64, nD * 4);
   auto timeKernel = [&](ShadowMode m, const NetworkGather* gather, bool pathTrace,
                         double grazingRays) {
     checkCancel();
@@ -485,18 +496,29 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     k.pt.maxBounces = pl.interreflection ? pl.bounces : 1;
     for (const auto& d : m_dirs.dirs()) k.lights.push_back(DVec3(Vec3(d.w)));
     const auto t = Clock::now();
-    for (int c = 0; c < calls; ++c) k.eval(c % cal, (c / cal) % cal, (c * 7) % nD, buf.data());
+    for (int c = 0; c < calls; ++c) {
+      if (m_adaptive) {
+        const uint64_t h = hashKeys(m_opt.seed, uint64_t(c), 0x7e5717a7e, 0);
+        const uint64_t tx = (h & 0xffffffffu) % uint64_t(calU * calV);
+        k.eval(int(tx % uint64_t(calU)), int(tx / uint64_t(calU)), int((h >> 32) % uint64_t(nD)),
+               buf.data());
+      } else {
+        k.eval(c % 8, (c / 8) % 8, (c * 7) % nD, buf.data());
+      }
+    }
     double perCall = since(t) / calls * (pathTrace ? m_opt.ptPaths : 1);
     if (m_adaptive && !pathTrace) {
-      // The calibration's texels are larger than the run's: more of them straddle an edge. The
-      // refinement beyond level 0 falls with the texel size; measured on brick (8×8 → 32², 64²)
-      // it goes as its square root. In (sample, light) evaluations per value (a closed-form
-      // value costs one per face): e → b + (e − b)·√(cal / N), b = level 0's share (4, or e).
+      // Beyond its 32 × 32 the calibration's texels are larger than the run's: more of them
+      // straddle an edge. The refinement beyond level 0 falls with the texel size; measured on
+      // brick (8×8 → 32², 64²) it goes as its square root. In (sample, light) evaluations per
+      // value (a closed-form value costs one per face): e → b + (e − b)·√(cal / N), b = level
+      // 0's share (4, or e).
       double values = 0;
       for (const auto& v : st.values) values += double(v.load());
       const double e = values > 0 ? double(st.evaluations.load()) / values : 4.0;
       const double b = std::min(4.0, e);
-      const double r = std::sqrt(std::min(1.0, double(cal) / double(std::max(m_opt.nu, m_opt.nv))));
+      const double r = std::sqrt(
+          std::min(1.0, double(std::max(calU, calV)) / double(std::max(m_opt.nu, m_opt.nv))));
       if (e > 0) perCall *= (b + (e - b) * r) / e;
     }
     return perCall;
