@@ -563,9 +563,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   // whose receivers over the whole texel — the plane's heights at the texel's corners, within
   // the tile's — have nothing above the lowest of them in the light's map, like the lit test
   // above; or a face the light does not reach (its value is 0 either way). Their samples take no
-  // visibility test, and the light's cells that hold only such faces stop refining: the light's
-  // value is then Σ area fraction × the mean of its samples per face (the faces' areas from the
-  // refinement above).
+  // visibility test, and the light's cells that hold only such faces stop refining; the light's
+  // value then merges its own grid with the face refinement's (finishLight below).
   sc.facePlanar.clear();
   bool anyCertified = false;
   if (closed && m_shadowEdges && edge == edgeBySamples) {
