@@ -95,7 +95,9 @@ TEST(Halfway, AHalfVectorLobeIsNearerRankOneAndItsRoundTripConvergesWithTheSet) 
     const double e = relRms(back, f);
     EXPECT_LT(e, 0.75 * previous) << name;
     previous = e;
-    if (std::string(name) == "16x32") EXPECT_LT(e, 0.08) << name;
+    if (std::string(name) == "16x32") {
+      EXPECT_LT(e, 0.08) << name;
+    }
   }
 }
 
