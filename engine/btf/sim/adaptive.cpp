@@ -352,12 +352,20 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   // lowest receiver: a receiver
   // on top of an occluder sees the occluder's own outline in the map, lit on both sides. (The
   // depth test is widened by one more sample: the map's 3 × 3 taps reach that far.)
+  // Something in light l's map over footprint r (widened by one more sample: the map's 3 × 3
+  // taps reach that far) lies above height zlo, beyond half the map's smallest bias.
+  auto above = [&](int l, const Rect& r, float zlo) {
+    return m_maps.maxDepth(l, r.a0 - 1, r.a1 + 1, r.b0 - 1, r.b1 + 1) >
+           zlo * m_invCos[size_t(l)] + m_litMargin;
+  };
+  // Light l's footprint of the whole texel's receivers at heights [zlo, zhi].
+  auto texelFootprint = [&](int l, float zlo, float zhi) {
+    return footprint(0.0f, 1.0f, 0.0f, 1.0f, lightSlopeX(l), lightSlopeY(l), zlo, zhi, 1.0f);
+  };
   auto shadowIn = [&](int l, float x0, float x1, float y0, float y1, float zlo, float zhi) {
     const float sx = lightSlopeX(l), sy = lightSlopeY(l);
     const Rect r = footprint(x0, x1, y0, y1, sx, sy, zlo, zhi, 1.0f);
-    if (!m_maps.edgeCount(l, r.a0, r.a1, r.b0, r.b1)) return false;
-    return m_maps.maxDepth(l, r.a0 - 1, r.a1 + 1, r.b0 - 1, r.b1 + 1) >
-           zlo * m_invCos[size_t(l)] + m_litMargin;
+    return m_maps.edgeCount(l, r.a0, r.a1, r.b0, r.b1) && above(l, r, zlo);
   };
   sc.flagged.assign(size_t(nL), 0);
   float qlo[4], qhi[4];
@@ -374,10 +382,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   const float zTol = 1e-6f * float(m_texelSize);
   const float planeTol = 1e-3f * float(m_texelSize);
   for (int l = 0; l < nL && m_shadowEdges && okCount; ++l) {
-    const Rect r =
-        footprint(0.0f, 1.0f, 0.0f, 1.0f, lightSlopeX(l), lightSlopeY(l), tlo, thi, 1.0f);
-    if (m_maps.maxDepth(l, r.a0 - 1, r.a1 + 1, r.b0 - 1, r.b1 + 1) <=
-        tlo * m_invCos[size_t(l)] + m_litMargin) {
+    const Rect r = texelFootprint(l, tlo, thi);
+    if (!above(l, r, tlo)) {
       sc.lit[size_t(l)] = 1;
       continue;
     }
@@ -626,12 +632,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
           continue;
         }
         if (!sc.facePlanar[size_t(f)]) continue;
-        const float zlo = sc.faceLo[size_t(f)], zhi = sc.faceHi[size_t(f)];
-        const Rect r =
-            footprint(0.0f, 1.0f, 0.0f, 1.0f, lightSlopeX(l), lightSlopeY(l), zlo, zhi, 1.0f);
-        if (m_maps.maxDepth(l, r.a0 - 1, r.a1 + 1, r.b0 - 1, r.b1 + 1) <=
-            zlo * m_invCos[size_t(l)] + m_litMargin)
-          cert |= 1u << f;
+        const float zlo = sc.faceLo[size_t(f)];
+        if (!above(l, texelFootprint(l, zlo, sc.faceHi[size_t(f)]), zlo)) cert |= 1u << f;
       }
       sc.certified[size_t(l)] = cert;
       if ((present & ~cert) == 0) sc.lit[size_t(l)] = 2;  // every face it lights is lit
