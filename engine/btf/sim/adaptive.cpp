@@ -381,19 +381,27 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   sc.lit.assign(size_t(nL), m_direct.settings().shadows == ShadowMode::None && okCount ? 1 : 0);
   const float zTol = 1e-6f * float(m_texelSize);
   const float planeTol = 1e-3f * float(m_texelSize);
-  for (int l = 0; l < nL && m_shadowEdges && okCount; ++l) {
-    const Rect r = texelFootprint(l, tlo, thi);
-    if (!above(l, r, tlo)) {
+  // Receivers at the tile's highest height have nothing above them: every light lights them,
+  // no map to query (the tops of brick's bricks).
+  const float zTop = m_tracer.geometry().zmax - zTol;
+  if (m_shadowEdges && okCount && tlo >= zTop) std::fill(sc.lit.begin(), sc.lit.end(), uint8_t(1));
+  // Light l with the texel's receivers at heights [lo, hi] and its quadrants' at qlo … qhi:
+  // lit, or flagged for the quadrants whose footprint holds a shadow edge.
+  auto testLight = [&](int l, float lo, float hi, const float* ql, const float* qh) {
+    const Rect r = texelFootprint(l, lo, hi);
+    if (!above(l, r, lo)) {
       sc.lit[size_t(l)] = 1;
-      continue;
+      return;
     }
     // The whole texel first: most other lights have no shadow edge near it either.
-    if (!m_maps.edgeCount(l, r.a0, r.a1, r.b0, r.b1)) continue;
+    if (!m_maps.edgeCount(l, r.a0, r.a1, r.b0, r.b1)) return;
     for (int q = 0; q < 4; ++q)
       if (qok[q] && shadowIn(l, 0.5f * float(q & 1), 0.5f * float((q & 1) + 1),
-                             0.5f * float(q >> 1), 0.5f * float((q >> 1) + 1), qlo[q], qhi[q]))
+                             0.5f * float(q >> 1), 0.5f * float((q >> 1) + 1), ql[q], qh[q]))
         sc.flagged[size_t(l)] |= uint8_t(1u << q);
-  }
+  };
+  for (int l = 0; l < nL && m_shadowEdges && okCount && tlo < zTop; ++l)
+    testLight(l, tlo, thi, qlo, qhi);
 
   // A sample's contribution for light l: its face's unshadowed value (once per face and light:
   // samples of one flat face share it) times its visibility (flagged lights: exact shadow rays
@@ -565,6 +573,25 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       sc.facePairs.push_back({a, b, 1});
     });
   }
+  // The refinement may show receivers beyond the map samples' heights (the lower part of a
+  // wall that one map sample touched at its top): a light that lit [tlo, thi] takes the closed
+  // form only if it lights them too; else it is tested again over the whole range, like the
+  // others (its faces may still be certified below).
+  if (closed && m_shadowEdges && !sc.geoExtra.empty()) {
+    float rlo = tlo, rhi = thi;
+    for (const auto& e : sc.geoExtra) {
+      const Sample& S = sc.levels[e[0]][size_t(e[1])];
+      if (S.ok) rlo = std::min(rlo, S.s.p.z), rhi = std::max(rhi, S.s.p.z);
+    }
+    if (rlo < tlo - zTol || rhi > thi + zTol) {
+      const float rl[4] = {rlo, rlo, rlo, rlo}, rh[4] = {rhi, rhi, rhi, rhi};
+      for (int l = 0; l < nL; ++l)
+        if (sc.lit[size_t(l)] && rlo < zTop) {
+          sc.lit[size_t(l)] = 0;
+          testLight(l, rlo, rhi, rl, rh);
+        }
+    }
+  }
   // Faces lit wherever they lie in the texel, per light: a flat face (its samples on one plane)
   // whose receivers over the whole texel — the plane's heights at the texel's corners, within
   // the tile's — have nothing above the lowest of them in the light's map, like the lit test
@@ -633,7 +660,8 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
         }
         if (!sc.facePlanar[size_t(f)]) continue;
         const float zlo = sc.faceLo[size_t(f)];
-        if (!above(l, texelFootprint(l, zlo, sc.faceHi[size_t(f)]), zlo)) cert |= 1u << f;
+        if (zlo >= zTop || !above(l, texelFootprint(l, zlo, sc.faceHi[size_t(f)]), zlo))
+          cert |= 1u << f;
       }
       sc.certified[size_t(l)] = cert;
       if ((present & ~cert) == 0) sc.lit[size_t(l)] = 2;  // every face it lights is lit

@@ -311,6 +311,32 @@ TEST(Adaptive, TileAverageIsReciprocalAtDefaultSettings) {
   }
 }
 
+TEST(Adaptive, ClosedFormLightsEveryReceiverTheRefinementFinds) {
+  // Brick, 32² × 8×16 (the benchmark grid), texel (21, 9) seen from view 56 (39°/191°):
+  // 15 of its 16 map samples see a brick's top and one the very top of a wall facing −y; the
+  // face refinement finds that wall down to 70 % of the brick's height. Lights at 84° from
+  // −y (122–125) light the map samples' heights but shadow the wall's lower part (the next
+  // brick across the mortar): before 2026-12-03 the closed form took the whole wall as lit,
+  // 0.48 instead of 0.20 (direct light).
+  const Scene s = resourceScene("brick");
+  SimOptions o = sceneOptions(s, 32, "8x16");
+  o.plan.interreflection = Toggle::Off;
+  const int64_t texel = 9 * 32 + 21;
+  const int view = 56, n = 128;
+  SimulationJob ad(s, o);
+  ASSERT_NEAR(rad2deg(ad.directions()[view].theta), 39.375, 1e-6);
+  const auto a = ad.evaluateTexels({texel});
+  o.adaptive = false;
+  o.spp = 16;
+  const auto u = SimulationJob(s, o).evaluateTexels({texel});
+  for (int l = 122; l <= 125; ++l) {
+    const size_t k = (size_t(view) * n + size_t(l)) * 3;
+    std::printf("  light %d (%.1f°/%.1f°): adaptive %.4f, uniform 16x16 %.4f\n", l,
+                rad2deg(ad.directions()[l].theta), rad2deg(ad.directions()[l].phi), a[k], u[k]);
+    EXPECT_NEAR(a[k], u[k], 0.2 * u[k]) << "light " << l;
+  }
+}
+
 TEST(Adaptive, DirectLightFindsObliqueShadowEdgesAndStaysReciprocal) {
   // V-grooves, direct light only. A receiver seen through plane point x at height z lies at
   // x + z·(s_view − s_light) in the light's map: sweeping from x alone (as the sampler once did)
