@@ -780,18 +780,27 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   auto computeViews = [&](int64_t t0, int64_t t1, int v0, int v1, float* out, size_t texelStride) {
     const int B = kernel.blockTexels();
     const int64_t blocks = (t1 - t0 + B - 1) / B, nv = v1 - v0;
+    // The texel-by-texel kernels go view by view over the texels: neighbouring texels seen from
+    // one view read neighbouring parts of each light's map (shadow-map taps, edge tables, block
+    // maxima), so consecutive items share cache lines. Progress counts a texel per nv items.
+    const bool viewMajor = B == 1 && !pt;
+    std::atomic<int64_t> itemsDone{0};
     parallelForChunks(
         blocks * nv, B > 1 || pt ? 1 : 8,
         [&](int64_t b, int64_t e) {
           uint64_t local = 0;
           for (int64_t k = b; k < e; ++k) {
-            const int64_t tb = t0 + (k / nv) * B;
+            const int64_t tb = t0 + (viewMajor ? k % blocks : k / nv) * B;
             const int n = int(std::min<int64_t>(B, t1 - tb));
-            const int view = v0 + int(k % nv);
+            const int view = v0 + int(viewMajor ? k / blocks : k % nv);
             local += uint64_t(kernel.evalBlock(
                 tb, n, m_opt.nu, view,
                 out + size_t(tb - t0) * texelStride + size_t(view - v0) * nD * 3, texelStride));
-            if (view == v1 - 1) pr.add(n);
+            if (!viewMajor && view == v1 - 1) pr.add(n);
+          }
+          if (viewMajor) {
+            const int64_t before = itemsDone.fetch_add(e - b);
+            pr.add((before + e - b) / nv - before / nv);
           }
           evals += local;
         },
