@@ -496,12 +496,16 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     k.pt.maxBounces = pl.interreflection ? pl.bounces : 1;
     for (const auto& d : m_dirs.dirs()) k.lights.push_back(DVec3(Vec3(d.w)));
     const auto t = Clock::now();
+    // Adaptive: runs of consecutive texels along a row seen from one view, as run() goes (view
+    // by view over the texels: neighbouring texels share the lights' map lines), each run at a
+    // hashed texel and view.
+    const int run = std::min(16, calU);
     for (int c = 0; c < calls; ++c) {
       if (m_adaptive) {
-        const uint64_t h = hashKeys(m_opt.seed, uint64_t(c), 0x7e5717a7e, 0);
+        const uint64_t h = hashKeys(m_opt.seed, uint64_t(c / run), 0x7e5717a7e, 0);
         const uint64_t tx = (h & 0xffffffffu) % uint64_t(calU * calV);
-        k.eval(int(tx % uint64_t(calU)), int(tx / uint64_t(calU)), int((h >> 32) % uint64_t(nD)),
-               buf.data());
+        k.eval(int((tx % uint64_t(calU) + uint64_t(c % run)) % uint64_t(calU)),
+               int(tx / uint64_t(calU)), int((h >> 32) % uint64_t(nD)), buf.data());
       } else {
         k.eval(c % 8, (c / 8) % 8, (c * 7) % nD, buf.data());
       }
@@ -786,7 +790,10 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     const bool viewMajor = B == 1 && !pt;
     std::atomic<int64_t> itemsDone{0};
     parallelForChunks(
-        blocks * nv, B > 1 || pt ? 1 : viewMajor ? 32 : 8,
+        blocks * nv,
+        B > 1 || pt ? 1
+        : viewMajor ? 32
+                    : 8,
         [&](int64_t b, int64_t e) {
           uint64_t local = 0;
           for (int64_t k = b; k < e; ++k) {
