@@ -790,10 +790,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     const bool viewMajor = B == 1 && !pt;
     std::atomic<int64_t> itemsDone{0};
     parallelForChunks(
-        blocks * nv,
-        B > 1 || pt ? 1
-        : viewMajor ? 32
-                    : 8,
+        blocks * nv, viewMajor ? 32 : 1,
         [&](int64_t b, int64_t e) {
           uint64_t local = 0;
           for (int64_t k = b; k < e; ++k) {
