@@ -345,13 +345,6 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   const float vsx = m_slopeX[size_t(view)], vsy = m_slopeY[size_t(view)];
   auto lightSlopeX = [&](int l) { return (m_slopeX[size_t(l)] - vsx) * m_toSampleX; };
   auto lightSlopeY = [&](int l) { return (m_slopeY[size_t(l)] - vsy) * m_toSampleY; };
-  // Can light l's visibility change across the receivers of a texel-local rectangle at
-  // heights [zlo, zhi]? Only where its map holds an edge in their footprint (a silhouette seen
-  // from the light; also material edges: they refine the texel's own edges for this light, which
-  // keeps cones and bumps within 1 % of the path tracer), and something there lies above the
-  // lowest receiver: a receiver
-  // on top of an occluder sees the occluder's own outline in the map, lit on both sides. (The
-  // depth test is widened by one more sample: the map's 3 × 3 taps reach that far.)
   // Something in light l's map over footprint r (widened by one more sample: the map's 3 × 3
   // taps reach that far) lies above height zlo, beyond half the map's smallest bias.
   auto above = [&](int l, const Rect& r, float zlo) {
@@ -362,6 +355,12 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
   auto texelFootprint = [&](int l, float zlo, float zhi) {
     return footprint(0.0f, 1.0f, 0.0f, 1.0f, lightSlopeX(l), lightSlopeY(l), zlo, zhi, 1.0f);
   };
+  // Can light l's visibility change across the receivers of a texel-local rectangle at
+  // heights [zlo, zhi]? Only where its map holds an edge in their footprint (a silhouette seen
+  // from the light; also material edges: they refine the texel's own edges for this light, which
+  // keeps cones and bumps within 1 % of the path tracer), and something there lies above the
+  // lowest receiver (`above`): a receiver on top of an occluder sees the occluder's own outline
+  // in the map, lit on both sides.
   auto shadowIn = [&](int l, float x0, float x1, float y0, float y1, float zlo, float zhi) {
     const float sx = lightSlopeX(l), sy = lightSlopeY(l);
     const Rect r = footprint(x0, x1, y0, y1, sx, sy, zlo, zhi, 1.0f);
