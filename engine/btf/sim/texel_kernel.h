@@ -1,0 +1,128 @@
+// What the simulator's rooms share (internal to engine/btf/sim): the clock, and the texel
+// kernel that evaluates one (texel, view) row of lights — direct, the network's final gather or
+// the path tracer — for the run, the estimate's calibration and the preview alike.
+#pragma once
+#include <btf/core/error.h>
+#include <btf/core/hash.h>
+#include <btf/core/run_context.h>
+#include <btf/core/sysinfo.h>
+#include <btf/geometry/tile_builder.h>
+#include <btf/sim/path_tracer.h>
+#include <btf/sim/shading.h>
+#include <btf/sim/simulator.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <future>
+#include <nlohmann/json.hpp>
+
+namespace btf {
+namespace simdetail {
+
+using Clock = std::chrono::steady_clock;
+inline double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+inline bool anyGlossy(const std::vector<Material>& mats) {
+  for (const Material& m : mats)
+    if (m.type != BrdfType::Lambert && (m.ks.x > 0 || m.ks.y > 0 || m.ks.z > 0)) return true;
+  return false;
+}
+
+// Everything that evaluates one (texel, view) row of lights: the direct kernel, the network's
+// final gather, or the path tracer.
+struct TexelKernel {
+  const PeriodicTracer& tracer;
+  const std::vector<Material>& materials;
+  const DirectionSet& dirs;
+  const HitMaps& maps;
+  const DirectIllumination& direct;
+  const NetworkGather* gather = nullptr;
+  bool pathTrace = false;
+  const AdaptiveTexelSampler* adaptive = nullptr;
+  PathSettings pt;
+  int ptPaths = 1;
+  std::vector<DVec3> lights;
+
+  /// Texels evaluated together per (block, view) item: the plain direct kernel lights a block
+  /// light by light (DirectIllumination::evalTexelsView); the other kernels go texel by texel.
+  int blockTexels() const { return adaptive || pathTrace ? 1 : DirectIllumination::kBlockTexels; }
+
+  /// Texels t0 … t0 + count − 1 (row-major over nu columns) seen from `view`: texel k's row of
+  /// lights at out + k · stride. Every value equals eval's.
+  int64_t evalBlock(int64_t t0, int count, int nu, int view, float* out, size_t stride) const {
+    BTF_CHECK(count >= 1 && count <= blockTexels());
+    if (count == 1) {
+      int64_t n = 0;
+      for (int k = 0; k < count; ++k)
+        n += eval(int((t0 + k) % nu), int((t0 + k) / nu), view, out + size_t(k) * stride);
+      return n;
+    }
+    // count ≤ kBlockTexels: one block.
+    int ti[DirectIllumination::kBlockTexels], tj[DirectIllumination::kBlockTexels];
+    float* rows[DirectIllumination::kBlockTexels];
+    for (int k = 0; k < count; ++k) {
+      ti[k] = int((t0 + k) % nu), tj[k] = int((t0 + k) / nu);
+      rows[k] = out + size_t(k) * stride;
+    }
+    const int64_t n = direct.evalTexelsView(ti, tj, count, view, rows);
+    if (gather)
+      for (int k = 0; k < count; ++k) addGather(ti[k], tj[k], view, rows[k]);
+    return n;
+  }
+
+  int64_t eval(int i, int j, int view, float* out) const {
+    const int nL = dirs.size();
+    const SampleGrid& g = maps.grid();
+    const int K2 = g.spp * g.spp;
+    if (adaptive && !pathTrace) return adaptive->eval(i, j, view, out);
+    if (pathTrace) {
+      std::vector<Rgb> acc(size_t(nL), Rgb(0));
+      const float w = 1.0f / (float(K2) * float(ptPaths));
+      for (int s = 0; s < K2; ++s) {
+        const int64_t si = g.sampleIndex(i, j, s);
+        const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
+        for (int q = 0; q < ptPaths; ++q) {
+          Rng rng(hashKeys(pt.seed ^ 0x7e11, uint64_t(si), uint64_t(view), uint64_t(q)));
+          tracePath(tracer, materials, p0, dirs[view].w, lights.data(), nL, pt, rng, w, acc.data());
+        }
+      }
+      for (int l = 0; l < nL; ++l)
+        for (int c = 0; c < 3; ++c) out[3 * l + c] = std::isfinite(acc[l][c]) ? acc[l][c] : 0.f;
+      return int64_t(K2) * ptPaths * nL;
+    }
+    const int64_t n = direct.evalTexelView(i, j, view, out);
+    if (gather) addGather(i, j, view, out);
+    return n;
+  }
+
+  // The network's final gather at texel (i, j)'s samples, added to its row.
+  void addGather(int i, int j, int view, float* out) const {
+    const SampleGrid& g = maps.grid();
+    const int K2 = g.spp * g.spp;
+    const DVec3 wv = dirs[view].w;
+    const float invK2 = 1.0f / float(K2);
+    const TileGeometry& geom = tracer.geometry();
+    for (int s = 0; s < K2; ++s) {
+      const int64_t si = g.sampleIndex(i, j, s);
+      const uint32_t prim = maps.prim(view, si);
+      if (prim == kNoHit) continue;
+      const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
+      const Vec3 p = Vec3(p0 + double(maps.depth(view, si)) * wv);
+      Vec3 ng, ns;
+      if (!hitNormals(geom, prim, maps.bu(view, si), maps.bv(view, si), Vec3(wv), &ng, &ns))
+        continue;
+      gather->add(p, ng, ns, prim, Vec3(wv), invK2, out);
+    }
+  }
+};
+
+}  // namespace simdetail
+}  // namespace btf
