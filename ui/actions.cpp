@@ -6,6 +6,7 @@
 #include <btf/core/error.h>
 #include <btf/core/input_file.h>
 #include <btf/core/sysinfo.h>
+#include <btf/ops/estimate.h>
 #include <btf/ops/ops.h>
 #include <btf/render/objects.h>
 #include <btf/sim/simulator.h>
@@ -46,20 +47,7 @@ std::string App::simulationEstimate() {
     const int threads = form.threads;
     m_estimate = std::async(std::launch::async, [scene, req, out, threads]() -> std::string {
       try {
-        std::string s;
-        withThreads(threads, [&] {
-          SimOptions o = ops::simOptions(scene, req);
-          o.progress = false;
-          SimulationJob job(scene, o);
-          const SimEstimate e = job.estimate(out);
-          std::ostringstream t;
-          t << "estimate: " << formatSeconds(e.seconds) << " on " << e.threads
-            << " thread(s), memory " << formatBytes(double(e.memoryBytes)) << ", disk "
-            << formatBytes(double(e.diskBytes));
-          if (!e.refusal.empty()) t << " — refused: " << e.refusal;
-          s = t.str();
-        });
-        return s;
+        return ops::estimateSimulation(scene, req, out, threads).line();
       } catch (const std::exception& e) {
         return std::string("estimate failed: ") + e.what();
       }

@@ -8,7 +8,6 @@
 #include <btf/core/json_limits.h>
 #include <btf/core/sysinfo.h>
 #include <btf/io/image_io.h>
-#include <btf/sim/simulator.h>
 #include <imgui.h>
 #include <imgui_stdlib.h>
 
