@@ -66,7 +66,9 @@ void ProgressReporter::draw(bool final) {
   if (m_tty) {
     if (!final && std::chrono::duration<double>(now - m_lastDraw).count() < 0.2) return;
   } else {
-    // A line per 10 %, and the 100 % line once (finish() after the last add() draws nothing new).
+    // A stage shorter than a second prints its final line only; longer ones a line per 10 %,
+    // and the 100 % line once (finish() after the last add() draws nothing new).
+    if (!final && el < 1.0) return;
     const int decile = int(frac * 10);
     if (decile == m_lastDecile && (!final || decile == 10)) return;
     m_lastDecile = decile;

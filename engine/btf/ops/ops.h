@@ -47,8 +47,9 @@ Report run(const Request& r, const RunContext& ctx, const NoteSink& notes,
 /// The scene's simulation block with the request's scene-backed options applied.
 SimOptions simOptions(const Scene& scene, const Request& r);
 CodecSettings codecSettings(const Request& r, const std::string& codec);
-/// "64" → (64, 64); "64x32" → (64, 32). Throws btf::Error naming the text.
-void parseTexels(const std::string& s, int* nu, int* nv);
+/// "64" → (64, 64); "64x32" → (64, 32). Throws btf::Error naming `option` (the one the user
+/// gave: --texels, --size) and the text.
+void parseTexels(const std::string& s, int* nu, int* nv, const std::string& option = "--texels");
 /// "30,45" → (30, 45), θ in [0, 90) (a BTF direction) or, with maxTheta = 180, in [0, 180]
 /// (a camera or light around an object). Throws btf::Error naming `what` and the text.
 void parseAnglePair(const std::string& s, const std::string& what, double* theta, double* phi,

@@ -95,7 +95,7 @@ void render(const Call& c) {
   if (outExt != ".exr" && outExt != ".png")
     throw Error("--output: expected an .exr or .png image (got '" + output + "')");
   RenderSettings s;
-  parseTexels(r.s("size"), &s.width, &s.height);
+  parseTexels(r.s("size"), &s.width, &s.height, "--size");
   if (s.width < 1 || s.height < 1 || s.width > 16384 || s.height > 16384)
     throw Error("--size: must be 1..16384 pixels a side (got '" + r.s("size") + "')");
   s.spp = r.i("spp");

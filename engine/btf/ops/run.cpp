@@ -45,16 +45,16 @@ std::vector<int> intList(const std::string& s, const std::string& what, int lo, 
 
 }  // namespace detail
 
-void parseTexels(const std::string& s, int* nu, int* nv) {
+void parseTexels(const std::string& s, int* nu, int* nv, const std::string& option) {
   int a = 0, b = 0;
   char x = 0, extra = 0;
   const int n = std::sscanf(s.c_str(), "%d%c%d%c", &a, &x, &b, &extra);
   if (n == 1)
     b = a;
   else if (!(n == 3 && (x == 'x' || x == 'X')))
-    throw Error("invalid --texels '" + s + "': expected N or NUxNV, e.g. 64 or 64x32");
+    throw Error("invalid " + option + " '" + s + "': expected N or NUxNV, e.g. 64 or 64x32");
   if (a < 1 || b < 1 || a > 16384 || b > 16384)
-    throw Error("invalid --texels '" + s + "': each count must be between 1 and 16384");
+    throw Error("invalid " + option + " '" + s + "': each count must be between 1 and 16384");
   *nu = a;
   *nv = b;
 }

@@ -41,6 +41,11 @@ TEST(Btfsim, BadArgumentsAreOneLineErrorsWithNonzeroExit) {
       {"brdf " + scenePath("brick") + " --pair 95,0,0,0", "θ must be in [0, 89.99] degrees"},
       {"brdf " + scenePath("brick") + " --pair 10,0,0", "expected θi,φi,θo,φo"},
       {"info " + (dir / "broken.json").string(), "not a BTF store"},
+      // The error names the option the user gave, not another that shares its parser.
+      {"render " + scenePath("brick") + " -o x.exr -q --mode exact --size 100000",
+       "invalid --size '100000': each count must be between 1 and 16384"},
+      {"render " + scenePath("brick") + " -o x.exr -q --mode exact --size 64y",
+       "invalid --size '64y'"},
   };
   for (const auto& c : cases) {
     std::string out;

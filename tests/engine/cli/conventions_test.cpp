@@ -256,6 +256,16 @@ TEST(CliConventions, NonTerminalBarsPrintEachLineOnceAndNoWildEta) {
     if (line.find(" elapsed") == std::string::npos || bar == std::string::npos) continue;
     const double pct = std::stod(line.substr(bar + 2));
     if (pct >= 100) ++full[line.substr(0, 14)];
+    // A stage shorter than a second prints its final line only: a line before 100 % comes
+    // after a second of the stage.
+    if (pct < 100) {
+      const auto e0 = line.find("%  ", bar), e1 = line.find(" elapsed");
+      ASSERT_NE(e0, std::string::npos) << line;
+      const std::string el = line.substr(e0 + 3, e1 - e0 - 3);
+      if (el.find("min") == std::string::npos && el.find(" h ") == std::string::npos) {
+        EXPECT_GE(std::stod(el), 1.0) << line;
+      }
+    }
     if (pct < 5) {
       EXPECT_NE(line.find("ETA …"), std::string::npos) << line;
     }
