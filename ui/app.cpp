@@ -531,6 +531,10 @@ int App::run() {
     frameHistory.push_back(frameMs);
     if (frameHistory.size() > 240) frameHistory.pop_front();
     if (!m_script.is_null() && !scriptStep()) m_quit = true;
+    // A script waiting on a job draws ten frames a second, not as many as the CPU renders: a
+    // software-rendered frame costs as much as the job's own work.
+    if (m_waitOnJob && m_waitFor)
+      std::this_thread::sleep_until(now + std::chrono::milliseconds(100));
   }
   jobs.cancelAll();
   jobs.waitAll(5);

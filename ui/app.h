@@ -137,6 +137,9 @@ class App : public StudioActions {
   int m_scriptWaitFrames = 0;
   std::chrono::steady_clock::time_point m_waitUntil{};
   std::function<bool()> m_waitFor;  // true when the wait is over
+  // The wait is on a background job: frames are spaced (scriptFrameSpacing) so that drawing
+  // them (llvmpipe under Xvfb) does not take the cores from the job.
+  bool m_waitOnJob = false;
   std::chrono::steady_clock::time_point m_waitDeadline{};
   std::string m_waitWhat;
   int m_exitStatus = 0;

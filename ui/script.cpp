@@ -79,6 +79,7 @@ bool App::scriptStep() {
       return true;
     }
     m_waitFor = nullptr;
+    m_waitOnJob = false;
   }
   if (m_scriptPos >= m_script.size()) {
     if (!m_report.empty() && m_report.contains("_path")) {
@@ -89,14 +90,23 @@ bool App::scriptStep() {
   }
   const json& a = m_script[m_scriptPos];
   const std::string where = opt.script + ": action " + std::to_string(m_scriptPos + 1);
+  // BTF_SCRIPT_TIMING=1: when each action starts (where a long scripted test spends its time).
+  static const bool timing = std::getenv("BTF_SCRIPT_TIMING") != nullptr;
+  static const auto scriptStart = Clock::now();
+  if (timing)
+    std::fprintf(stderr, "script timing: action %zu (%s) at %.2f s\n", m_scriptPos + 1,
+                 a.is_object() && !a.empty() ? a.begin().key().c_str() : "?",
+                 std::chrono::duration<double>(Clock::now() - scriptStart).count());
   ++m_scriptPos;
   auto fail = [&](const std::string& why) {
     message(where + ": " + why, true);
     m_exitStatus = 1;
     return false;
   };
-  auto waitFor = [&](std::function<bool()> f, double seconds, const std::string& what) {
+  auto waitFor = [&](std::function<bool()> f, double seconds, const std::string& what,
+                     bool onJob = false) {
     m_waitFor = std::move(f);
+    m_waitOnJob = onJob;
     m_waitDeadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                         std::chrono::duration<double>(seconds));
     m_waitWhat = what;
@@ -245,7 +255,8 @@ bool App::scriptStep() {
                              ? startStreamedSimulation(s.at("output"))
                              : startSimulation(s.at("output"), s.value("compress", false));
            if (a.value("wait", 0.0) > 0)
-             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the simulation");
+             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(),
+                     "the simulation", true);
            return std::nullopt;
          }},
         {"compress",
@@ -256,14 +267,16 @@ bool App::scriptStep() {
            form.codecOptions.setFlag("mip", s.value("mip", false));
            m_lastJobId = startCompression(s.at("input"), s.at("output"));
            if (a.value("wait", 0.0) > 0)
-             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the compression");
+             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(),
+                     "the compression", true);
            return std::nullopt;
          }},
         {"study",
          [&]() -> std::optional<bool> {
            m_lastJobId = startStudy(a["study"].at("dir"));
            if (a.value("wait", 0.0) > 0)
-             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the study");
+             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(),
+                     "the study", true);
            return std::nullopt;
          }},
         {"export",
@@ -271,7 +284,8 @@ bool App::scriptStep() {
            const json& s = a["export"];
            m_lastJobId = startExport(s.at("input"), s.at("format"), s.at("output"));
            if (a.value("wait", 0.0) > 0)
-             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the export");
+             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(),
+                     "the export", true);
            return std::nullopt;
          }},
         {"render_objects",
@@ -281,7 +295,8 @@ bool App::scriptStep() {
            m_lastJobId = startObjectRender(s.value("mode", "all"), s.value("spp", 4),
                                            s.value("size", 256), s.value("output", ""));
            if (a.value("wait", 0.0) > 0)
-             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the render");
+             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(),
+                     "the render", true);
            return std::nullopt;
          }},
         {"cancel",
@@ -303,7 +318,8 @@ bool App::scriptStep() {
          }},
         {"wait_jobs",
          [&]() -> std::optional<bool> {
-           waitFor([this] { return !jobs.busy(); }, a["wait_jobs"].get<double>(), "the jobs");
+           waitFor([this] { return !jobs.busy(); }, a["wait_jobs"].get<double>(),
+                     "the jobs", true);
            return std::nullopt;
          }},
         {"expect_job",
@@ -349,7 +365,8 @@ bool App::scriptStep() {
          [&]() -> std::optional<bool> {
            m_lastJobId = startCodecSweep(a["codec_sweep"].get<std::string>());
            if (a.value("wait", 0.0) > 0)
-             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(), "the codec sweep");
+             waitFor([this] { return !jobs.busy(); }, a["wait"].get<double>(),
+                     "the codec sweep", true);
            return std::nullopt;
          }},
         {"expect_codec_rows",
