@@ -152,15 +152,13 @@ int App::startObjectRender(const std::string& mode, int spp, int size, const std
     obj.cpuImagePath = out;
     // One line per mode: time, and the error against the exact image when there is one.
     std::string text;
-    for (const auto& im : rep.json.at("images")) {
+    for (const auto& im : rep.as<ops::RenderResult>().images) {
       char line[256];
-      std::snprintf(line, sizeof line, "%-6s %7.2f s", im["mode"].get<std::string>().c_str(),
-                    im["seconds"].get<double>());
+      std::snprintf(line, sizeof line, "%-6s %7.2f s", im.mode.c_str(), im.seconds);
       text += line;
-      if (im.contains("error_vs_exact")) {
+      if (im.errorVsExact) {
         std::snprintf(line, sizeof line, "   vs exact: relative RMSE %.1f %%, coverage %.2f %%",
-                      100 * im["error_vs_exact"]["rel_rmse"].get<double>(),
-                      100 * im["error_vs_exact"]["coverage_mismatch"].get<double>());
+                      100 * im.errorVsExact->relRmse, 100 * im.errorVsExact->coverageMismatch);
         text += line;
       }
       text += "\n";
@@ -240,10 +238,10 @@ int App::startCodecSweep(const std::string& reference) {
     // `btfsim compress --compare`: the report carries the error against the reference.
     const ops::Request req = compressRequest(form, reference, out, codec, true);
     auto job = opJob(req, nullptr, [this, codec](const ops::Report& rep) {
-      const auto& e = rep.json.at("error");
-      const InspectorState::Row row{codec, rep.json.at("ratio").get<double>(),
-                                    e.at("rmse").get<double>(), e.at("relative_rmse").get<double>(),
-                                    e.at("psnr_db").get<double>()};
+      const auto& res = rep.as<ops::CompressResult>();
+      if (!res.error) return;  // --compare always measures it
+      const InspectorState::Row row{codec, res.file.ratio, res.error->rmse, res.error->relRmse,
+                                    res.error->psnr};
       std::erase_if(insp.codecs, [&](const InspectorState::Row& r) { return r.codec == codec; });
       insp.codecs.push_back(row);
     });

@@ -56,16 +56,27 @@ std::string errorText(const ErrorReport& e) {
 
 }  // namespace
 
-std::string levelsReport(const PyramidReport& rep, json* levels) {
-  *levels = json::array();
+std::string levelsReport(const PyramidReport& rep, std::vector<LevelFigures>* levels) {
+  levels->clear();
   std::string t;
   for (size_t k = 0; k < rep.levels.size(); ++k) {
     const auto& e = rep.levels[k];
-    levels->push_back(
-        {{"level", k}, {"texels", {e.nu, e.nv}}, {"relative_rmse", e.relRmse}, {"rmse", e.rmse}});
+    levels->push_back({int(k), e.nu, e.nv, e.relRmse, e.rmse});
     t += format("  level %-2zu %5d x %-5d relative RMSE %.3f %%\n", k, e.nu, e.nv, 100 * e.relRmse);
   }
   return t;
+}
+
+CodecFigures codecFigures(const CompressedBtf& b, double rawBytes, uint64_t compressedBytes,
+                          double ratio, uint64_t peakMemoryBytes) {
+  CodecFigures f;
+  f.params = json::parse(b.paramsJson);
+  f.stats = json::parse(b.statsJson);
+  f.rawBytes = rawBytes;
+  f.compressedBytes = compressedBytes;
+  f.ratio = ratio;
+  f.peakMemoryBytes = peakMemoryBytes;
+  return f;
 }
 
 namespace {
@@ -81,36 +92,29 @@ void compressMip(const Call& c, const CodecSettings& cs) {
   writeCompressed(r.s("output"), b);
   c.rep.outputs.push_back(r.s("output"));
   warnTarget(c, b);
-  json& j = c.rep.json;
   const double raw0 = double(b.info.texels()) * b.info.texelBytes();
   const double rawAll = double(pyramidTexels(b.levels)) * b.info.texelBytes();
-  j["input"] = r.s("input");
-  j["output"] = r.s("output");
-  j["codec"] = json::parse(b.paramsJson);
-  j["stats"] = json::parse(b.statsJson);
-  j["seconds"] = rep.seconds;
-  j["level_seconds"] = rep.levelSeconds;
-  j["train_seconds"] = rep.trainSeconds;
-  j["encode_seconds"] = rep.encodeSeconds;
-  j["finish_seconds"] = rep.finishSeconds;
-  j["raw_bytes"] = raw0;
-  j["pyramid_raw_bytes"] = rawAll;
-  j["compressed_bytes"] = rep.fileBytes;
-  j["ratio"] = rep.ratio;
-  j["pyramid_ratio"] = rawAll / double(std::max<uint64_t>(1, rep.fileBytes));
-  j["peak_memory_bytes"] = rep.peakRssBytes;
-  // Level 0 against the input, measured with every level (--compare adds nothing more).
-  j["error"] = {
-      {"level", 0}, {"rmse", rep.levels[0].rmse}, {"relative_rmse", rep.levels[0].relRmse}};
+  CompressResult res;
+  res.input = r.s("input");
+  res.output = r.s("output");
+  res.file = codecFigures(b, raw0, rep.fileBytes, rep.ratio, rep.peakRssBytes);
+  res.seconds = rep.seconds;
+  res.trainSeconds = rep.trainSeconds;
+  res.encodeSeconds = rep.encodeSeconds;
+  res.finishSeconds = rep.finishSeconds;
+  CompressResult::Pyramid& py = res.pyramid.emplace();
+  py.levelSeconds = rep.levelSeconds;
+  py.rawBytes = rawAll;
+  py.ratio = rawAll / double(std::max<uint64_t>(1, rep.fileBytes));
   c.rep.text = "wrote " + r.s("output") + " (a pyramid of " + std::to_string(b.levels.size()) +
                " texel levels)\n" + compressedText(b, rep.seconds, rep.peakRssBytes) +
                format(
                    "  pyramid: raw %s (%.3f× level 0) -> 1:%.0f of the pyramid's raw "
                    "bytes; levels built in %s\n",
-                   formatBytes(rawAll).c_str(), rawAll / raw0,
-                   rawAll / double(std::max<uint64_t>(1, rep.fileBytes)),
+                   formatBytes(rawAll).c_str(), rawAll / raw0, py.ratio,
                    formatSeconds(rep.levelSeconds).c_str()) +
-               levelsReport(rep, &j["levels"]);
+               levelsReport(rep, &py.levels);
+  c.rep.result = res;
   c.rep.summary =
       format("wrote %s, %zu levels, ratio 1:%.0f (of level 0) in %s, level 0 relative RMSE %.2f %%",
              r.s("output").c_str(), b.levels.size(), b.ratio(), formatSeconds(rep.seconds).c_str(),
@@ -130,40 +134,37 @@ void compress(const Call& c) {
   CompressReport rep;
   Comm& comm = c.ctx.processes();
   const CompressedBtf b = compressStore(r.s("input"), cs, c.progress(), c.ctx.cancel, &rep, &comm);
-  json& j = c.rep.json;
+  CompressResult res;
   if (comm.distributed()) {
-    j["cluster"] = clusterJson(comm, double(rep.texelsEncoded), rep.texelBytes, rep.commBytes,
-                               rep.encodeSeconds);
+    res.cluster = clusterFigures(comm, double(rep.texelsEncoded), rep.texelBytes, rep.commBytes,
+                                 rep.encodeSeconds);
     if (!comm.root()) return;  // rank 0 writes and reports
   }
   c.ctx.check("encoder");
   writeCompressed(r.s("output"), b);
   c.rep.outputs.push_back(r.s("output"));
   warnTarget(c, b);
-  j["input"] = r.s("input");
-  j["output"] = r.s("output");
-  j["codec"] = json::parse(b.paramsJson);
-  j["stats"] = json::parse(b.statsJson);
-  j["seconds"] = rep.seconds;
-  j["train_seconds"] = rep.trainSeconds;
-  j["encode_seconds"] = rep.encodeSeconds;
-  j["finish_seconds"] = rep.finishSeconds;
-  j["raw_bytes"] = double(b.info.texels()) * b.info.nDirs() * b.info.nDirs() * 12.0;
-  j["compressed_bytes"] = rep.fileBytes;
-  j["ratio"] = rep.ratio;
-  j["peak_memory_bytes"] = rep.peakRssBytes;
+  res.input = r.s("input");
+  res.output = r.s("output");
+  res.file = codecFigures(b, double(b.info.texels()) * b.info.nDirs() * b.info.nDirs() * 12.0,
+                          rep.fileBytes, rep.ratio, rep.peakRssBytes);
+  res.seconds = rep.seconds;
+  res.trainSeconds = rep.trainSeconds;
+  res.encodeSeconds = rep.encodeSeconds;
+  res.finishSeconds = rep.finishSeconds;
   c.rep.text = "wrote " + r.s("output") + "\n" + compressedText(b, rep.seconds, rep.peakRssBytes) +
-               (comm.distributed() ? clusterText(j["cluster"]) : std::string());
+               (res.cluster ? clusterText(*res.cluster) : std::string());
   c.rep.summary = format("wrote %s, ratio 1:%.0f in %s", r.s("output").c_str(), b.ratio(),
                          formatSeconds(rep.seconds).c_str());
   if (r.b("compare")) {
     const auto ref = openBtf(r.s("input"));
     const auto dec = makeDecoder(b);
     const ErrorReport e = compareBtfs(*ref, *dec, c.progress(), 10, c.ctx.cancel);
-    j["error"] = json::parse(errorReportJson(e));
+    res.error = e;
     c.rep.text += "  error: " + errorText(e) + "\n";
     c.rep.summary += format(", relative RMSE %.2f %%", 100 * e.relRmse);
   }
+  c.rep.result = std::move(res);
 }
 
 void compare(const Call& c) {
@@ -182,12 +183,12 @@ void compare(const Call& c) {
     return isCompressedFile(p) ? readCompressed(p).ratio() : 1.0;
   };
   const double ratioA = ratioOf(r.s("a")), ratioB = ratioOf(r.s("b"));
-  json& j = c.rep.json;
-  j = json::parse(errorReportJson(e));
-  j["level"] = level;
-  j["a"] = {{"path", r.s("a")}, {"kind", A->kind()}, {"ratio", ratioA}};
-  j["b"] = {{"path", r.s("b")}, {"kind", B->kind()}, {"ratio", ratioB}};
-  if (!r.s("maps").empty()) j["maps"] = r.s("maps");
+  CompareResult res;
+  res.error = e;
+  res.level = level;
+  res.a = {r.s("a"), A->kind(), ratioA};
+  res.b = {r.s("b"), B->kind(), ratioB};
+  res.maps = r.s("maps");
   std::string t = format("A %s (%s, ratio 1:%.0f)\nB %s (%s, ratio 1:%.0f)\n", r.s("a").c_str(),
                          A->kind().c_str(), ratioA, r.s("b").c_str(), B->kind().c_str(), ratioB);
   if (level > 0) t += format("texel level %d: %d x %d texels\n", level, A->info().nu, A->info().nv);
@@ -200,10 +201,7 @@ void compare(const Call& c) {
     const ErrorReport f = compareBtfs(*A, *N, c.progress(), 0, c.ctx.cancel, &comm);
     const double floorRmse = f.rmse / std::sqrt(2.0), floorRel = f.relRmse / std::sqrt(2.0);
     const double excessRel = std::sqrt(std::max(0.0, e.relRmse * e.relRmse - floorRel * floorRel));
-    j["noise"] = {{"path", r.s("noise")},
-                  {"floor_rmse", floorRmse},
-                  {"floor_relative_rmse", floorRel},
-                  {"excess_relative_rmse", excessRel}};
+    res.noise = CompareResult::Noise{r.s("noise"), floorRmse, floorRel, excessRel};
     t += format(
         "noise floor of A (RMS(A − %s)/√2): RMSE %.6g, relative %.3f %%; B's error in "
         "excess of it: relative %.3f %%%s\n",
@@ -229,6 +227,7 @@ void compare(const Call& c) {
          "/direction_rmse.{exr,png}\n";
   c.rep.text = t;
   c.rep.summary = format("relative RMSE %.3f %%, PSNR %.2f dB", 100 * e.relRmse, e.psnr);
+  c.rep.result = std::move(res);
 }
 
 void exportBtf(const Call& c) {
@@ -237,11 +236,11 @@ void exportBtf(const Call& c) {
                               c.progress(), c.ctx.cancel);
   const std::string& fmt = r.s("format");
   const std::string& out = r.s("output");
-  json& j = c.rep.json;
-  j["input"] = r.s("input");
-  j["format"] = fmt;
-  j["output"] = out;
-  j["level"] = r.i("level");
+  ExportResult res;
+  res.input = r.s("input");
+  res.format = fmt;
+  res.output = out;
+  res.level = r.i("level");
   c.rep.outputs.push_back(out);
   if (fmt == "ubo2003") {
     Ubo2003Options o;
@@ -249,13 +248,15 @@ void exportBtf(const Call& c) {
     o.zip = r.b("zip");
     o.scale = r.f("scale");
     const Ubo2003Report e = exportUbo2003(*d, out, c.progress(), c.ctx.cancel, o);
-    j["images"] = e.images;
-    j["image_format"] = o.imageFormat;
-    j["zip"] = o.zip;
+    ExportResult::Ubo2003 x;
+    x.images = e.images;
+    x.imageFormat = o.imageFormat;
+    x.zip = o.zip;
     if (o.imageFormat != "exr") {
-      j["scale"] = e.scale;
-      j["clipped_fraction"] = e.clipped;
+      x.scale = e.scale;
+      x.clippedFraction = e.clipped;
     }
+    res.details = x;
     c.rep.text = format("wrote %lld %s images and btf_export.json %s %s\n", (long long)e.images,
                         o.imageFormat.c_str(), o.zip ? "into" : "under", out.c_str());
     if (o.imageFormat != "exr")
@@ -265,10 +266,8 @@ void exportBtf(const Call& c) {
     const double target = r.f("target_rmse");
     const Ubo2014Report e =
         exportUbo2014(*d, out, r.i("components"), c.progress(), c.ctx.cancel, target);
-    j["bytes"] = e.bytes;
-    j["components"] = {e.components[0], e.components[1], e.components[2]};
-    j["factorisation_relative_rmse"] = e.relRmse;
-    j["export_relative_rmse"] = e.measuredRmse;
+    res.details = ExportResult::Ubo2014{
+        e.bytes, {e.components[0], e.components[1], e.components[2]}, e.relRmse, e.measuredRmse};
     c.rep.text = format(
         "wrote %s (%s): DFMF, colour model 0, fp16, components R %d G %d B %d; the export "
         "adds a relative RMSE of %.3f %% to its input (every texel; training fit %.3f %%)\n",
@@ -281,11 +280,8 @@ void exportBtf(const Call& c) {
                  100 * e.measuredRmse, 100 * target));
   } else {
     const MerlReport e = exportMerl(*d, out, r.i("phi_samples"), c.progress(), c.ctx.cancel);
-    j["bins"] = e.bins;
-    j["missing_bins"] = e.missingBins;
-    j["anisotropy"] = e.anisotropy;
-    j["asymmetry"] = e.asymmetry;
-    j["asymmetry_max"] = e.asymmetryMax;
+    res.details =
+        ExportResult::Merl{e.bins, e.missingBins, e.anisotropy, e.asymmetry, e.asymmetryMax};
     c.rep.text = format(
         "wrote %s: 90x90x180 bins, %lld missing (below the horizon), φh spread "
         "%.1f %%, symmetrised f(ωi, ωo) and f(ωo, ωi) (source asymmetry %.2f %% mean, %.1f %% "
@@ -305,18 +301,23 @@ void exportBtf(const Call& c) {
                  100 * e.anisotropy));
   }
   c.rep.summary = "wrote " + out;
+  c.rep.result = std::move(res);
 }
 
 namespace {
 
 // The keys both kinds of file report first, in the same shape.
-void headerJson(json& j, const std::string& path, const char* format, const BtfInfo& I) {
-  j["path"] = path;
-  j["format"] = format;
-  j["scene"] = I.sceneName;
-  j["scene_hash"] = I.sceneHash;
-  j["texels"] = {I.nu, I.nv};
-  j["directions"] = {{"set", I.directionSet}, {"count", I.nDirs()}, {"theta_phi_deg", I.dirsDeg}};
+InfoResult header(const std::string& path, const char* format, const BtfInfo& I) {
+  InfoResult j;
+  j.path = path;
+  j.format = format;
+  j.scene = I.sceneName;
+  j.sceneHash = I.sceneHash;
+  j.nu = I.nu, j.nv = I.nv;
+  j.directionSet = I.directionSet;
+  j.directionCount = I.nDirs();
+  j.directionsDeg = I.dirsDeg;
+  return j;
 }
 
 json parsedOrString(const std::string& s) {
@@ -332,25 +333,20 @@ json parsedOrString(const std::string& s) {
 
 void info(const Call& c) {
   const std::string& path = c.r.s("btf");
-  json& j = c.rep.json;
   if (isCompressedFile(path)) {
     CompressedBtf b = readCompressed(path);  // verifies every checksum or throws
     const BtfInfo& I = b.info;
-    headerJson(j, path, "compressed", I);
-    j["file_bytes"] = b.fileBytes();
-    j["verified"] = true;
-    j["codec"] = b.codec;
-    j["colour"] = b.colour;
-    j["params"] = json::parse(b.paramsJson);
-    j["stats"] = json::parse(b.statsJson);
-    j["ratio"] = b.ratio();
-    json arrays = json::array();
+    InfoResult res = header(path, "compressed", I);
+    res.fileBytes = b.fileBytes();
+    res.verified = true;
+    InfoResult::Compressed& j = res.details.emplace<InfoResult::Compressed>();
+    j.codec = b.codec;
+    j.colour = b.colour;
+    j.params = json::parse(b.paramsJson);
+    j.stats = json::parse(b.statsJson);
+    j.ratio = b.ratio();
     for (const auto& x : b.arrays)
-      arrays.push_back({{"name", x.name},
-                        {"rows", x.rows},
-                        {"cols", x.cols},
-                        {"type", x.type == ArrayType::F16 ? "f16" : "f32"}});
-    j["arrays"] = arrays;
+      j.arrays.push_back({x.name, x.rows, x.cols, x.type == ArrayType::F16 ? "f16" : "f32"});
     std::string t = format("%s: compressed BTF, codec %s (%s), %s, ratio 1:%.0f\n", path.c_str(),
                            b.codec.c_str(), b.colour.c_str(),
                            formatBytes(double(b.fileBytes())).c_str(), b.ratio());
@@ -362,20 +358,15 @@ void info(const Call& c) {
       // A pyramid: its levels, with the error compress measured for each.
       const json st = json::parse(b.statsJson);
       const json errs = st.contains("levels") ? st["levels"] : json::array();
-      json lv = json::array();
       for (size_t k = 0; k < b.levels.size(); ++k) {
         const MipLevel& l = b.levels[k];
         const double e =
             k < errs.size() && errs[k].is_object() ? errs[k].value("relative_rmse", -1.0) : -1.0;
-        lv.push_back({{"level", k},
-                      {"texels", {l.nu, l.nv}},
-                      {"first", l.first},
-                      {"relative_rmse", e >= 0 ? json(e) : json(nullptr)}});
+        j.levels.push_back({l.nu, l.nv, l.first, e >= 0 ? std::optional<double>(e) : std::nullopt});
         t += format("  level %-6zu %d x %d texels from texel %lld%s\n", k, l.nu, l.nv,
                     (long long)l.first,
                     e >= 0 ? format(", relative RMSE %.3f %%", 100 * e).c_str() : "");
       }
-      j["levels"] = lv;
     }
     for (const auto& x : b.arrays)
       t += format("  array        %-18s %lld x %lld %s\n", x.name.c_str(), (long long)x.rows,
@@ -417,10 +408,7 @@ void info(const Call& c) {
         secs = std::chrono::duration<double>(Clock::now() - t0).count();
       }
       const double texelRate = double(values) / secs;
-      j["decoder_bench"] = {{"threads", 1},
-                            {"random_values_per_s", randomRate},
-                            {"texel_values_per_s", texelRate},
-                            {"checksum", sink}};
+      j.decoderBench = InfoResult::Compressed::DecoderBench{randomRate, texelRate, sink};
       t += format(
           "  decode       %.2f M random values/s, %.2f M values/s by whole texels (RGB "
           "values, one thread)\n",
@@ -428,26 +416,19 @@ void info(const Call& c) {
     }
     c.rep.text = t;
     c.rep.summary = "verified " + path;
+    c.rep.result = std::move(res);
     return;
   }
   BtfReader rd(path);
   const BtfInfo& I = rd.info();
   const auto v = rd.verify();
   const bool ok = v.badChunks.empty() && v.vmfOk;
-  headerJson(j, path, "raw", I);
-  j["file_bytes"] = rd.layout().totalBytes;
-  j["verified"] = ok;
-  j["tile_size"] = {I.Lx, I.Ly};
-  j["chunk_texels"] = I.chunkTexels;
-  j["chunks"] = I.chunks();
-  j["spp"] = I.spp;
-  j["shadows"] = I.shadows;
-  j["shadow_bias"] = I.shadowBias;
-  j["seed"] = I.seed;
-  j["plan"] = parsedOrString(I.plan);
-  j["has_vmf"] = I.hasVmf;
-  j["bad_chunks"] = v.badChunks;
-  j["vmf_ok"] = v.vmfOk;
+  InfoResult res = header(path, "raw", I);
+  res.fileBytes = rd.layout().totalBytes;
+  res.verified = ok;
+  res.details = InfoResult::Raw{I.Lx,         I.Ly,     I.chunkTexels,         I.chunks(),
+                                I.spp,        I.shadows, I.shadowBias,         I.seed,
+                                parsedOrString(I.plan), I.hasVmf, v.badChunks, v.vmfOk};
   std::string t = format("%s: raw BTF store, %s\n", path.c_str(),
                          formatBytes(double(rd.layout().totalBytes)).c_str());
   t += format("  scene        %s (hash %s)\n  tile         %g x %g\n  texels       %d x %d\n",
@@ -465,6 +446,7 @@ void info(const Call& c) {
     t += "\n";
   }
   c.rep.text = t;
+  c.rep.result = std::move(res);
   if (!ok) {
     std::string what;
     for (int k : v.badChunks)
@@ -496,11 +478,11 @@ void slice(const Call& c) {
     throw Error(
         "slice needs exactly one of --view θ,φ (spatial image) or --texel u,v|avg (hemisphere)");
   const int n = I.nDirs();
-  json& j = c.rep.json;
-  j["input"] = r.s("btf");
-  j["output"] = out;
-  j["light_theta_phi_deg"] = {tl, pl};
-  j["level"] = r.i("level");
+  SliceResult res;
+  res.input = r.s("btf");
+  res.output = out;
+  res.light = {tl, pl};
+  res.level = r.i("level");
   c.rep.outputs.push_back(out);
   ImageMetadata meta = {{"units", "aBRDF, 1/sr, linear RGB"},
                         {"light_theta_phi_deg", format("%.10g,%.10g", tl, pl)},
@@ -528,9 +510,10 @@ void slice(const Call& c) {
     c.ctx.check("slice");
     meta.push_back({"view_theta_phi_deg", format("%.10g,%.10g", tv, pv)});
     writeRgbImage(out, I.nu, I.nv, img, scale, true, meta);
-    j["kind"] = "spatial";
-    j["view_theta_phi_deg"] = {tv, pv};
-    j["size"] = {I.nu, I.nv};
+    res.kind = "spatial";
+    res.view = {tv, pv};
+    res.width = I.nu, res.height = I.nv;
+    c.rep.result = res;
     c.rep.text = format("wrote %s: %dx%d texels, view (%g, %g), light (%g, %g) degrees\n",
                         out.c_str(), I.nu, I.nv, tv, pv, tl, pl);
     c.rep.summary = "wrote " + out;
@@ -584,9 +567,10 @@ void slice(const Call& c) {
     }
   meta.push_back({"texel", texel});
   writeRgbImage(out, S, S, img, scale, true, meta);
-  j["kind"] = "hemisphere";
-  j["texel"] = texel;
-  j["size"] = {S, S};
+  res.kind = "hemisphere";
+  res.texel = texel;
+  res.width = res.height = S;
+  c.rep.result = res;
   c.rep.text = format("wrote %s: aBRDF over views of the %s, light (%g, %g) degrees\n", out.c_str(),
                       what.c_str(), tl, pl);
   c.rep.summary = "wrote " + out;

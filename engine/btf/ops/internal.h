@@ -7,6 +7,11 @@
 #include <cstdarg>
 #include <string>
 
+namespace btf {
+struct CompressedBtf;
+struct PyramidReport;
+}  // namespace btf
+
 namespace btf::ops::detail {
 
 using json = nlohmann::ordered_json;
@@ -50,8 +55,20 @@ void study(const Call& c);
 /// A cluster job's figures (docs/cluster.md): per rank, texels computed or encoded and bytes
 /// communicated, against that rank's bytes of aBRDF. Every rank calls it (a collective).
 /// `seconds`: the rank's own work (its chunks), to show the balance.
-json clusterJson(Comm& comm, double texels, double texelBytes, uint64_t commBytes, double seconds);
-std::string clusterText(const json& cluster);
+ClusterFigures clusterFigures(Comm& comm, double texels, double texelBytes, uint64_t commBytes,
+                              double seconds);
+std::string clusterText(const ClusterFigures& cluster);
+
+// Shared by the compressing use cases (compress, simulate --compress).
+/// Warns when the ratio asked could not be spent or the codec's own stage exceeds the target
+/// (also the studio's warning).
+void warnTarget(const Call& c, const CompressedBtf& b);
+std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss);
+/// A pyramid's levels and their errors: the report's lines, and the levels' figures.
+std::string levelsReport(const PyramidReport& rep, std::vector<LevelFigures>* levels);
+/// The codec's params and stats (parsed), sizes and ratio of a compressed file.
+CodecFigures codecFigures(const CompressedBtf& b, double rawBytes, uint64_t compressedBytes,
+                          double ratio, uint64_t peakMemoryBytes);
 
 /// "1,2,3" → items; throws naming the option when empty.
 std::vector<std::string> splitList(const std::string& s, const std::string& what);

@@ -4,6 +4,8 @@
 // writers (docs/architecture.md).
 #pragma once
 #include <btf/core/run_context.h>
+#include <btf/core/error.h>
+#include <btf/ops/reports.h>
 #include <btf/ops/request.h>
 
 #include <functional>
@@ -19,16 +21,25 @@ struct CodecSettings;
 
 namespace btf::ops {
 
-/// What a use case returns: `json` is what `--json` prints (its schema is
-/// docs/schemas/COMMAND.json), `text` the human summary for stdout, `notes` lines for stderr
-/// (the plan, the estimate, warnings), `outputs` the files written.
+/// What a use case returns: `result` its typed report (reports.h: the fields of
+/// docs/schemas/COMMAND.json), `json` the same serialised, as `--json` prints it (with the
+/// request echoed), `text` the human summary for stdout, `notes` lines for stderr (the plan, the
+/// estimate, warnings), `outputs` the files written.
 struct Report {
   std::string command;
+  Result result;
   nlohmann::ordered_json json = nlohmann::ordered_json::object();
   std::string text;
   std::vector<std::string> notes, warnings, outputs;
   /// One line for the studio's job list.
   std::string summary;
+  /// The typed report of command T (CompressResult for compress…); throws btf::Error when the
+  /// report holds another.
+  template <class T>
+  const T& as() const {
+    if (const T* t = std::get_if<T>(&result)) return *t;
+    throw Error("the report of '" + command + "' is not the one asked for");
+  }
 };
 
 /// Runs a request (validated first). Cancellation throws btf::Cancelled and leaves no output

@@ -25,18 +25,6 @@ std::string lower(std::string s) {
   return s;
 }
 
-json errorJson(const ImageError& e) {
-  json j;
-  j["rel_rmse"] = e.relRmse;
-  j["rel_rmse_interior"] = e.relRmseInterior;
-  j["interior_pixels"] = e.interiorPixels;
-  j["coverage_mismatch"] = e.coverageMismatch;
-  j["reference_pixels"] = e.refPixels;
-  j["mismatch_pixels"] = e.mismatchPixels;
-  j["extra_pixels"] = e.extraPixels;
-  return j;
-}
-
 /// exact | mapped | flat | |mapped − exact| (magenta where one covers the pixel and the other
 /// does not), 4-pixel black gaps, tone mapped like the PNGs.
 void writeSideBySide(const std::string& path, const std::vector<const RenderImage*>& imgs,
@@ -63,7 +51,7 @@ void writeSideBySide(const std::string& path, const std::vector<const RenderImag
 
 // The texel footprints of a flat or mapped image: median area in level-0 texels (of a pixel's
 // samples, each a 1/spp share of the pixel) and the share of pixels at each level.
-json footprintJson(const RenderImage& img) {
+RenderResult::Image::Footprint footprint(const RenderImage& img) {
   std::vector<float> area;
   std::vector<int64_t> hist;
   for (size_t k = 0; k < img.lod.size(); ++k) {
@@ -73,15 +61,13 @@ json footprintJson(const RenderImage& img) {
     if (hist.size() <= l) hist.resize(l + 1, 0);
     ++hist[l];
   }
-  json j;
-  j["pixels"] = area.size();
-  if (area.empty()) return j;
+  RenderResult::Image::Footprint f;
+  f.pixels = area.size();
+  if (area.empty()) return f;
   std::nth_element(area.begin(), area.begin() + ptrdiff_t(area.size() / 2), area.end());
-  j["median_texels_per_sample"] = area[area.size() / 2];
-  json h = json::array();
-  for (int64_t n : hist) h.push_back(double(n) / double(area.size()));
-  j["level_share"] = h;
-  return j;
+  f.medianTexelsPerSample = area[area.size() / 2];
+  for (int64_t n : hist) f.levelShare.push_back(double(n) / double(area.size()));
+  return f;
 }
 
 }  // namespace
@@ -157,33 +143,32 @@ void render(const Call& c) {
                        tile.zmax, s);
   const std::vector<Material> materials = compileMaterials(scene);
 
-  json& j = c.rep.json;
-  j["input"] = input;
-  j["output"] = output;
-  j["mode"] = mode;
-  j["object"] = r.s("object");
-  j["size"] = {s.width, s.height};
-  j["spp"] = s.spp;
-  j["tiling"] = s.tiling;
-  j["relief_scale"] = s.reliefScale;
-  j["filter"] = r.s("filter");
+  RenderResult res;
+  res.input = input;
+  res.output = output;
+  res.mode = mode;
+  res.object = r.s("object");
+  res.width = s.width, res.height = s.height;
+  res.spp = s.spp;
+  res.tiling = s.tiling;
+  res.reliefScale = s.reliefScale;
+  res.filter = r.s("filter");
   if (btf)
-    j["texel_levels"] = {{"count", btf->levels()},
-                         {"from", btf->levels() == 1  ? "none"
-                                  : btf->fileLevels() ? "file"
-                                                      : "box filtered"},
-                         {"forced", s.forceLevel},
-                         {"max_aniso", s.maxAniso}};
-  j["camera_theta_phi_deg"] = {s.camTheta, s.camPhi};
-  j["light_theta_phi_deg"] = {s.lightTheta, s.lightPhi};
-  j["irradiance"] = s.irradiance;
-  j["environment"] = s.environment;
-  j["projection"] = r.s("projection");
-  j["world_per_tile_unit"] = rs.worldPerTile();
-  j["shell"] = {{"prisms", rs.prisms()},
-                {"faces", rs.shellFaces()},
-                {"height_range_world",
-                 {double(tile.zmin) * rs.heightScale(), double(tile.zmax) * rs.heightScale()}}};
+    res.texelLevels = RenderResult::TexelLevels{btf->levels(),
+                                                btf->levels() == 1  ? "none"
+                                                : btf->fileLevels() ? "file"
+                                                                    : "box filtered",
+                                                s.forceLevel, s.maxAniso};
+  res.camera = {s.camTheta, s.camPhi};
+  res.light = {s.lightTheta, s.lightPhi};
+  res.irradiance = s.irradiance;
+  res.environment = s.environment;
+  res.projection = r.s("projection");
+  res.worldPerTileUnit = rs.worldPerTile();
+  res.prisms = rs.prisms();
+  res.shellFaces = rs.shellFaces();
+  res.heightRangeWorld = {double(tile.zmin) * rs.heightScale(),
+                          double(tile.zmax) * rs.heightScale()};
   std::vector<std::string> modes;
   if (mode == "all")
     modes = {"exact", "mapped", "flat"};
@@ -222,7 +207,6 @@ void render(const Call& c) {
                               {"scene_hash", sceneHash},
                               {"object", r.s("object")},
                               {"source", input}};
-  json list = json::array();
   for (const std::string& m : modes) {
     ProgressReporter pr("render " + m, s.height, c.progress());
     RenderImage img = m == "flat" ? rs.renderFlat(*btf, c.ctx.cancel, &pr)
@@ -230,20 +214,19 @@ void render(const Call& c) {
                           ? rs.renderMapped(*btf, c.ctx.cancel, &pr)
                           : rs.renderExact(tile, materials, maxTriangles, c.ctx.cancel, &pr);
     pr.finish();
-    json e;
-    e["mode"] = m;
-    e["seconds"] = img.seconds;
-    e["samples"] = img.samples;
-    e["rays"] = img.rays;
-    e["triangles"] = img.triangles;
-    e["samples_per_second"] = img.seconds > 0 ? double(img.samples) / img.seconds : 0.0;
-    if (m != "exact") e["footprint"] = footprintJson(img);
+    RenderResult::Image e;
+    e.mode = m;
+    e.seconds = img.seconds;
+    e.samples = img.samples;
+    e.rays = img.rays;
+    e.triangles = img.triangles;
+    if (m != "exact") e.footprint = footprint(img);
     std::string file = output;
     if (mode == "all") {
       const fs::path o(output);
       file = (o.parent_path() / (o.stem().string() + "." + m + ".exr")).string();
     }
-    e["output"] = file;
+    e.output = file;
     ImageMetadata md = meta;
     md.push_back({"mode", m});
     if (lower(fs::path(file).extension().string()) == ".exr")
@@ -251,38 +234,35 @@ void render(const Call& c) {
     else
       writeRgbImage(file, img.width, img.height, img.rgb, float(r.f("exposure")), false, md);
     c.rep.outputs.push_back(file);
-    if (haveRef) e["error"] = errorJson(compareImages(img, ref));
-    list.push_back(e);
+    if (haveRef) e.error = compareImages(img, ref);
+    res.images.push_back(std::move(e));
     images.push_back(std::move(img));
   }
   if (mode == "all") {
     for (size_t k = 1; k < images.size(); ++k)
-      list[k]["error_vs_exact"] = errorJson(compareImages(images[k], images[0]));
+      res.images[k].errorVsExact = compareImages(images[k], images[0]);
     writeSideBySide(output, {&images[0], &images[1], &images[2]}, float(r.f("exposure")));
     c.rep.outputs.push_back(output);
-    j["mapped_speedup"] = images[1].seconds > 0 ? images[0].seconds / images[1].seconds : 0.0;
+    res.mappedSpeedup = images[1].seconds > 0 ? images[0].seconds / images[1].seconds : 0.0;
   }
-  j["images"] = list;
   std::string text;
-  for (const auto& e : list) {
-    text += format("%-6s %8.2f s  %llu samples, %llu rays, %llu triangles -> %s",
-                   e["mode"].get<std::string>().c_str(), e["seconds"].get<double>(),
-                   (unsigned long long)e["samples"].get<uint64_t>(),
-                   (unsigned long long)e["rays"].get<uint64_t>(),
-                   (unsigned long long)e["triangles"].get<uint64_t>(),
-                   e["output"].get<std::string>().c_str());
-    for (const char* key : {"error", "error_vs_exact"})
-      if (e.contains(key))
-        text += format("  [%s: rel. RMSE %.2f %%, coverage mismatch %.2f %%]",
-                       std::string(key) == "error" ? "vs reference" : "vs exact",
-                       100 * e[key]["rel_rmse"].get<double>(),
-                       100 * e[key]["coverage_mismatch"].get<double>());
+  for (const auto& e : res.images) {
+    text += format("%-6s %8.2f s  %llu samples, %llu rays, %llu triangles -> %s", e.mode.c_str(),
+                   e.seconds, (unsigned long long)e.samples, (unsigned long long)e.rays,
+                   (unsigned long long)e.triangles, e.output.c_str());
+    if (e.error)
+      text += format("  [vs reference: rel. RMSE %.2f %%, coverage mismatch %.2f %%]",
+                     100 * e.error->relRmse, 100 * e.error->coverageMismatch);
+    if (e.errorVsExact)
+      text += format("  [vs exact: rel. RMSE %.2f %%, coverage mismatch %.2f %%]",
+                     100 * e.errorVsExact->relRmse, 100 * e.errorVsExact->coverageMismatch);
     text += "\n";
   }
   if (mode == "all")
     text += "side by side (exact | mapped | flat | |mapped - exact|): " + output + "\n";
   c.rep.text = text;
   c.rep.summary = "rendered " + output;
+  c.rep.result = std::move(res);
 }
 
 }  // namespace btf::ops::detail

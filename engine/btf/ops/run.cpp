@@ -245,6 +245,7 @@ Report run(const Request& r, const RunContext& ctxIn, const NoteSink& notes, con
     cleanUp();
     throw;
   }
+  rep.json = toJson(rep.result);
   rep.json["request"] = nlohmann::ordered_json::parse(r.toJson())["options"];
   return rep;
 }

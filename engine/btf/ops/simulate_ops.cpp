@@ -72,50 +72,37 @@ json planJson(const EffectPlan& p) {
 
 }  // namespace
 
-// Also the studio's warning: the codec's own stage already exceeds the target.
-void warnTarget(const Call& c, const CompressedBtf& b);
-std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss);
-/// A pyramid's levels and their errors: the report's lines, and `levels` as JSON.
-std::string levelsReport(const PyramidReport& rep, json* levels);
-
-json clusterJson(Comm& comm, double texels, double texelBytes, uint64_t commBytes, double seconds) {
+ClusterFigures clusterFigures(Comm& comm, double texels, double texelBytes, uint64_t commBytes,
+                              double seconds) {
   // Per rank: texels, bytes of aBRDF it computed or encoded, bytes it sent and received, and the
   // seconds of its own share.
   const std::vector<double> mine = {double(texels), double(texels) * texelBytes, double(commBytes),
                                     seconds};
-  json ranks = json::array();
-  double worst = 0, maxBytes = 0, slowest = 0, total = 0;
+  ClusterFigures f;
+  double slowest = 0, total = 0;
   for (const std::string& s : comm.allgather(packDoubles(mine))) {
     const std::vector<double> v = unpackDoubles(s);
     const double share = v[1] > 0 ? v[2] / v[1] : 0;
-    worst = std::max(worst, share);
-    maxBytes = std::max(maxBytes, v[2]);
+    f.maxCommunicatedFraction = std::max(f.maxCommunicatedFraction, share);
+    f.maxCommunicatedBytes = std::max(f.maxCommunicatedBytes, v[2]);
     slowest = std::max(slowest, v[3]);
     total += v[3];
-    ranks.push_back({{"texels", v[0]},
-                     {"data_bytes", v[1]},
-                     {"communicated_bytes", v[2]},
-                     {"communicated_fraction", share},
-                     {"seconds", v[3]}});
+    f.perRank.push_back({v[0], v[1], v[2], share, v[3]});
   }
-  return {{"ranks", comm.size()},
-          {"communicator", comm.describe()},
-          {"max_communicated_bytes", maxBytes},
-          {"max_communicated_fraction", worst},
-          {"balance", slowest > 0 ? total / (slowest * comm.size()) : 1.0},
-          {"per_rank", ranks}};
+  f.ranks = comm.size();
+  f.communicator = comm.describe();
+  f.balance = slowest > 0 ? total / (slowest * comm.size()) : 1.0;
+  return f;
 }
 
-std::string clusterText(const json& cl) {
-  std::string t =
-      format("  cluster: %s; balance %.0f %% (mean / slowest rank); per rank:",
-             cl["communicator"].get<std::string>().c_str(), 100 * cl["balance"].get<double>());
+std::string clusterText(const ClusterFigures& cl) {
+  std::string t = format("  cluster: %s; balance %.0f %% (mean / slowest rank); per rank:",
+                         cl.communicator.c_str(), 100 * cl.balance);
   int r = 0;
-  for (const auto& x : cl["per_rank"])
-    t += format(" [%d] %g texels in %.1f s, %s sent+received (%.3f %% of its data)", r++,
-                x["texels"].get<double>(), x["seconds"].get<double>(),
-                formatBytes(x["communicated_bytes"].get<double>()).c_str(),
-                100 * x["communicated_fraction"].get<double>());
+  for (const auto& x : cl.perRank)
+    t += format(" [%d] %g texels in %.1f s, %s sent+received (%.3f %% of its data)", r++, x.texels,
+                x.seconds, formatBytes(x.communicatedBytes).c_str(),
+                100 * x.communicatedFraction);
   return t + "\n";
 }
 
@@ -141,19 +128,16 @@ void simulatePyramid(const Call& c, SimulationJob& job, const SimEstimate& est,
   const double wall = since(start);
   const uint64_t rss = peakRssBytes();
   warnTarget(c, b);
-  json& j = c.rep.json;
-  j["codec"] = json::parse(b.paramsJson);
-  j["stats"] = json::parse(b.statsJson);
-  j["wall_seconds"] = wall;
-  if (sr.adaptive) j["samples"] = json::parse(sr.samplingJson);
-  j["simulate_seconds"] = sr.wallSeconds;
-  j["level_seconds"] = rep.levelSeconds;
-  j["encode_seconds"] = rep.trainSeconds + rep.encodeSeconds;
-  j["finish_seconds"] = rep.finishSeconds;
-  j["raw_bytes"] = double(b.info.texels()) * b.info.texelBytes();
-  j["compressed_bytes"] = b.fileBytes();
-  j["ratio"] = b.ratio();
-  j["peak_memory_bytes"] = rss;
+  SimulateResult& res = std::get<SimulateResult>(c.rep.result);
+  if (sr.adaptive) res.samples = json::parse(sr.samplingJson);
+  SimulateResult::Compressed& z = res.compressed.emplace();
+  z.file = codecFigures(b, double(b.info.texels()) * b.info.texelBytes(), b.fileBytes(), b.ratio(),
+                        rss);
+  z.wallSeconds = wall;
+  z.simulateSeconds = sr.wallSeconds;
+  z.levelSeconds = rep.levelSeconds;
+  z.encodeSeconds = rep.trainSeconds + rep.encodeSeconds;
+  z.finishSeconds = rep.finishSeconds;
   c.rep.text = format(
                    "wrote %s (a pyramid of %zu texel levels)\n  wall %s: simulation %s, "
                    "levels %s, encoding %s, finish %s\n",
@@ -161,7 +145,7 @@ void simulatePyramid(const Call& c, SimulationJob& job, const SimEstimate& est,
                    formatSeconds(sr.wallSeconds).c_str(), formatSeconds(rep.levelSeconds).c_str(),
                    formatSeconds(rep.trainSeconds + rep.encodeSeconds).c_str(),
                    formatSeconds(rep.finishSeconds).c_str()) +
-               samplingText(sr) + compressedText(b, wall, rss) + levelsReport(rep, &j["levels"]);
+               samplingText(sr) + compressedText(b, wall, rss) + levelsReport(rep, &z.levels);
   c.rep.summary = format("wrote %s, %zu levels, ratio 1:%.0f (of level 0) in %s", output.c_str(),
                          b.levels.size(), b.ratio(), formatSeconds(wall).c_str());
 }
@@ -227,19 +211,19 @@ void simulate(const Call& c) {
                : std::string()) +
           est.refusal);
   });
-  json& j = c.rep.json;
-  j["output"] = output;
-  j["scene"] = scene.name;
-  j["texels"] = {o.nu, o.nv};
-  j["directions"] = job.directions().name();
-  j["direction_count"] = job.directions().size();
-  j["spp"] = o.spp;
-  j["sampling"] = samplingName(job);
-  j["shadows"] = shadowModeName(o.shadows);
-  j["method"] = o.method;
-  j["plan"] = planJson(job.plan());
-  j["threads"] = est.threads;
-  j["estimated_seconds"] = est.seconds;
+  SimulateResult& res = c.rep.result.emplace<SimulateResult>();
+  res.output = output;
+  res.scene = scene.name;
+  res.nu = o.nu, res.nv = o.nv;
+  res.directions = job.directions().name();
+  res.directionCount = job.directions().size();
+  res.spp = o.spp;
+  res.sampling = samplingName(job);
+  res.shadows = shadowModeName(o.shadows);
+  res.method = o.method;
+  res.plan = planJson(job.plan());
+  res.threads = est.threads;
+  res.estimatedSeconds = est.seconds;
   c.rep.outputs.push_back(output);
   if (mip) {
     simulatePyramid(c, job, est, level0);
@@ -283,27 +267,24 @@ void simulate(const Call& c) {
     const double finishSeconds = since(f0);
     const uint64_t commBytes = comm.bytesSent() + comm.bytesReceived() - comm0;
     if (comm.distributed())
-      j["cluster"] = clusterJson(comm, sr.texelsComputed, double(info.texelBytes()), commBytes,
-                                 sr.rankEvalSeconds);
+      res.cluster = clusterFigures(comm, sr.texelsComputed, double(info.texelBytes()), commBytes,
+                                   sr.rankEvalSeconds);
     if (!comm.root()) return;
     c.ctx.check("encoder");
     writeCompressed(output, b);
     const double wall = since(start);
     const uint64_t rss = peakRssBytes();
     warnTarget(c, b);
-    j["codec"] = json::parse(b.paramsJson);
-    j["stats"] = json::parse(b.statsJson);
-    j["wall_seconds"] = wall;
-    if (sr.adaptive) j["samples"] = json::parse(sr.samplingJson);
-    j["simulate_seconds"] = sr.wallSeconds - encodeSeconds;
-    j["encode_seconds"] = encodeSeconds;
-    j["finish_seconds"] = finishSeconds;
-    j["raw_bytes"] = double(info.texels()) * info.nDirs() * info.nDirs() * 12.0;
-    j["compressed_bytes"] = b.fileBytes();
-    j["ratio"] = b.ratio();
-    j["peak_memory_bytes"] = rss;
+    if (sr.adaptive) res.samples = json::parse(sr.samplingJson);
+    SimulateResult::Compressed& z = res.compressed.emplace();
+    z.file = codecFigures(b, double(info.texels()) * info.nDirs() * info.nDirs() * 12.0,
+                          b.fileBytes(), b.ratio(), rss);
+    z.wallSeconds = wall;
+    z.simulateSeconds = sr.wallSeconds - encodeSeconds;
+    z.encodeSeconds = encodeSeconds;
+    z.finishSeconds = finishSeconds;
     c.rep.text =
-        (comm.distributed() ? clusterText(j["cluster"]) : std::string()) +
+        (res.cluster ? clusterText(*res.cluster) : std::string()) +
         format(
             "wrote %s\n  %d x %d texels, %d directions (%s); wall %s: simulation %s, "
             "encoding %s, finish (PCA) %s\n",
@@ -318,31 +299,19 @@ void simulate(const Call& c) {
   const SimReport sr = job.run(output, est, c.ctx.cancel);
   if (!sr.resumeNote.empty()) c.warn(sr.resumeNote);
   if (comm.distributed())
-    j["cluster"] =
-        clusterJson(comm, sr.texelsComputed, double(job.storeInfo(est.chunkTexels).texelBytes()),
-                    sr.commBytes, sr.rankEvalSeconds);
+    res.cluster =
+        clusterFigures(comm, sr.texelsComputed, double(job.storeInfo(est.chunkTexels).texelBytes()),
+                       sr.commBytes, sr.rankEvalSeconds);
   const double evalRate = sr.evalSeconds > 0 ? double(sr.abrdfValues) / sr.evalSeconds : 0;
   const double rayRate = sr.hitMapSeconds > 0 ? double(sr.hitMapRays) / sr.hitMapSeconds : 0;
-  j["network_points"] = sr.networkPoints;
-  j["network_links"] = sr.networkLinks;
-  j["precompute_seconds"] = sr.precomputeSeconds;
-  j["render_seconds"] = sr.renderSeconds;
-  j["network_seconds"] = sr.networkSeconds;
-  j["network_light_seconds"] = sr.lightSeconds;
-  j["wall_seconds"] = sr.wallSeconds;
-  j["hit_map_seconds"] = sr.hitMapSeconds;
-  j["abrdf_seconds"] = sr.evalSeconds;
-  j["write_seconds"] = sr.writeSeconds;
-  j["hit_map_rays"] = sr.hitMapRays;
-  j["rays_per_second"] = rayRate;
-  j["abrdf_values"] = sr.abrdfValues;
-  j["abrdf_evaluations_per_second"] = evalRate;
-  j["brdf_evaluations"] = sr.brdfEvaluations;
-  j["peak_memory_bytes"] = sr.peakRssBytes;
-  j["output_bytes"] = sr.outputBytes;
-  j["chunks"] = sr.chunks;
-  j["chunks_resumed"] = sr.chunksResumed;
-  if (sr.adaptive) j["samples"] = json::parse(sr.samplingJson);
+  res.store = SimulateResult::Store{sr.networkPoints,    sr.networkLinks,   sr.precomputeSeconds,
+                                    sr.renderSeconds,     sr.networkSeconds, sr.lightSeconds,
+                                    sr.wallSeconds,       sr.hitMapSeconds,  sr.evalSeconds,
+                                    sr.writeSeconds,      sr.hitMapRays,     rayRate,
+                                    sr.abrdfValues,       evalRate,          sr.brdfEvaluations,
+                                    sr.peakRssBytes,      sr.outputBytes,    sr.chunks,
+                                    sr.chunksResumed};
+  if (sr.adaptive) res.samples = json::parse(sr.samplingJson);
   const EffectPlan& pl = job.plan();
   std::string t =
       format("wrote %s (%s)\n", output.c_str(), formatBytes(double(sr.outputBytes)).c_str());
@@ -367,7 +336,7 @@ void simulate(const Call& c) {
         formatSeconds(sr.renderSeconds).c_str(), formatSeconds(sr.lightSeconds).c_str());
   t += format("  peak memory %s; chunks %d (%d resumed)\n",
               formatBytes(double(sr.peakRssBytes)).c_str(), sr.chunks, sr.chunksResumed);
-  if (comm.distributed()) t += clusterText(j["cluster"]);
+  if (res.cluster) t += clusterText(*res.cluster);
   c.rep.text = t;
   c.rep.summary =
       format("wrote %s (%s) in %s", output.c_str(), formatBytes(double(sr.outputBytes)).c_str(),
@@ -383,26 +352,18 @@ void plan(const Call& c) {
   job.setCancel(c.ctx.cancel);
   const SimEstimate est = job.estimate("");
   const EffectPlan& p = job.plan();
-  json& j = c.rep.json;
-  j = planJson(p);
-  j["scene"] = scene.name;
-  j["method"] = o.method;
-  j["texels"] = {o.nu, o.nv};
-  j["directions"] = job.directions().name();
-  j["triangles"] = job.geometry().triangleCount();
-  j["estimate"]["seconds"] = est.seconds;
-  j["estimate"]["hit_map_seconds"] = est.hitMapSeconds;
-  j["estimate"]["abrdf_seconds"] = est.evalSeconds;
-  j["estimate"]["network_light_seconds"] = est.lightSeconds;
-  j["estimate"]["gather_seconds"] = est.gatherSeconds;
-  j["estimate"]["memory_bytes"] = est.memoryBytes;
-  j["estimate"]["network_bytes"] = est.networkBytes;
-  if (const PointNetwork* n = job.network()) {
-    j["network"]["points"] = n->points().size();
-    j["network"]["links"] = n->links().size();
-    j["network"]["voxels"] = n->settings().voxels;
-    j["network"]["build_seconds"] = n->buildSeconds();
-  }
+  PlanResult& res = c.rep.result.emplace<PlanResult>();
+  res.plan = planJson(p);
+  res.scene = scene.name;
+  res.method = o.method;
+  res.nu = o.nu, res.nv = o.nv;
+  res.directions = job.directions().name();
+  res.triangles = job.geometry().triangleCount();
+  res.estimate = {est.seconds,      est.hitMapSeconds, est.evalSeconds, est.lightSeconds,
+                  est.gatherSeconds, est.memoryBytes,   est.networkBytes};
+  if (const PointNetwork* n = job.network())
+    res.network = PlanResult::Network{n->points().size(), n->links().size(), n->settings().voxels,
+                                      n->buildSeconds()};
   std::string t = format("effect plan for %s (%dx%d texels, %s, %d directions, method %s):\n",
                          scene.name.c_str(), o.nu, o.nv, job.directions().name().c_str(),
                          job.directions().size(), o.method.c_str());
@@ -431,7 +392,8 @@ void plan(const Call& c) {
 
 void bench(const Call& c) {
   const Scene scene = c.scene();
-  json results = json::array();
+  BenchResult& res = c.rep.result.emplace<BenchResult>();
+  res.scene = scene.name;
   std::string t;
   for (const auto& mode : splitList(c.r.s("shadows"), "--shadows")) {
     SimOptions o = simOptions(scene, c.r);
@@ -464,28 +426,28 @@ void bench(const Call& c) {
       return v[v.size() / 2];
     };
     const double peak = *std::max_element(rss.begin(), rss.end());
-    json j;
-    j["shadows"] = mode;
-    j["method"] = o.method;
-    j["interreflection"] = job.plan().interreflection;
-    j["bounces"] = job.plan().bounces;
-    j["texels"] = {o.nu, o.nv};
-    j["directions"] = job.directions().name();
-    j["pairs"] = int64_t(job.directions().size()) * job.directions().size();
-    j["spp"] = o.spp;
-    j["sampling"] = samplingName(job);
-    if (last.adaptive) j["samples"] = json::parse(last.samplingJson);
-    j["threads"] = est.threads;
-    j["runs"] = repeat;
-    j["median_wall_seconds"] = median(wall);
-    j["median_hit_map_seconds"] = median(hit);
-    j["median_abrdf_seconds"] = median(eval);
-    j["median_rays_per_second"] = median(rays);
-    j["median_abrdf_values_per_second"] = median(rates);
-    j["estimated_seconds"] = est.seconds;
-    j["peak_rss_bytes"] = peak;
-    j["memory_budget_bytes"] = o.memoryBudget;
-    results.push_back(j);
+    BenchResult::Mode j;
+    j.shadows = mode;
+    j.method = o.method;
+    j.interreflection = job.plan().interreflection;
+    j.bounces = job.plan().bounces;
+    j.nu = o.nu, j.nv = o.nv;
+    j.directions = job.directions().name();
+    j.pairs = int64_t(job.directions().size()) * job.directions().size();
+    j.spp = o.spp;
+    j.sampling = samplingName(job);
+    if (last.adaptive) j.samples = json::parse(last.samplingJson);
+    j.threads = est.threads;
+    j.runs = repeat;
+    j.medianWallSeconds = median(wall);
+    j.medianHitMapSeconds = median(hit);
+    j.medianAbrdfSeconds = median(eval);
+    j.medianRaysPerSecond = median(rays);
+    j.medianAbrdfValuesPerSecond = median(rates);
+    j.estimatedSeconds = est.seconds;
+    j.peakRssBytes = peak;
+    j.memoryBudgetBytes = o.memoryBudget;
+    res.results.push_back(std::move(j));
     t += format(
         "%-5s %dx%d texels x %s^2, %s, %d thread(s): median wall %.2f s = hit maps "
         "%.2f s (%.2f M rays/s) + aBRDF %.2f s (%.1f M values/s); peak RSS %s\n",
@@ -494,8 +456,6 @@ void bench(const Call& c) {
         median(rates) / 1e6, formatBytes(peak).c_str());
     t += samplingText(last);
   }
-  c.rep.json["scene"] = scene.name;
-  c.rep.json["results"] = results;
   c.rep.text = t;
   c.rep.summary = "bench of " + scene.name;
 }
@@ -546,23 +506,18 @@ void brdf(const Call& c) {
     ps.seed = o.seed;
     vals = pathTracedBrdf(job.tracer(), job.materials(), pairs, samples, r.i("paths"), ps);
   }
-  json arr = json::array();
+  BrdfResult& res = c.rep.result.emplace<BrdfResult>();
   std::string t = "theta_i,phi_i,theta_o,phi_o,r,g,b\n";
   for (size_t k = 0; k < vals.size(); ++k) {
-    arr.push_back({{"theta_i", deg[k][0]},
-                   {"phi_i", deg[k][1]},
-                   {"theta_o", deg[k][2]},
-                   {"phi_o", deg[k][3]},
-                   {"abrdf", {vals[k].x, vals[k].y, vals[k].z}}});
+    res.pairs.push_back(
+        {deg[k][0], deg[k][1], deg[k][2], deg[k][3], {vals[k].x, vals[k].y, vals[k].z}});
     t += format("%g,%g,%g,%g,%.7g,%.7g,%.7g\n", deg[k][0], deg[k][1], deg[k][2], deg[k][3],
                 vals[k].x, vals[k].y, vals[k].z);
   }
-  json& j = c.rep.json;
-  j["scene"] = scene.name;
-  j["method"] = r.s("method");
-  j["bounces"] = r.i("bounces");
-  j["samples"] = samples * samples * (r.s("method") == "pt" ? r.i("paths") : 1);
-  j["pairs"] = arr;
+  res.scene = scene.name;
+  res.method = r.s("method");
+  res.bounces = r.i("bounces");
+  res.samples = samples * samples * (r.s("method") == "pt" ? r.i("paths") : 1);
   c.rep.text = t;
   c.rep.summary = format("%zu pair(s) of %s", vals.size(), scene.name.c_str());
 }

@@ -140,7 +140,7 @@ void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o, 
         "Pareto |\n|---|---|---|---|---|---|---|---|---|---|\n";
   std::string t = format("%-8s %6s %-24s %8s %9s %9s %8s %8s\n", "codec", "beta", "components",
                          "ratio", "RMSE", "rel.RMSE", "PSNR", "time");
-  json arr = json::array();
+  std::vector<StudyResult::Codec> arr;
   for (const auto& row : rows) {
     const std::string comp = (row.s.components ? std::to_string(row.s.components) : "auto") +
                              (row.chosen.empty() ? "" : " " + row.chosen);
@@ -156,18 +156,13 @@ void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o, 
     t += format("%-8s %6.4f %-24s %7.0f:1 %9.4g %8.2f%% %7.1fdB %7.1fs %s\n", row.s.codec.c_str(),
                 row.s.beta, comp.substr(0, 24).c_str(), row.ratio, row.rmse, 100 * row.rel,
                 row.psnr, row.seconds, row.pareto ? "*" : "");
-    arr.push_back({{"codec", row.s.codec},
-                   {"beta", row.s.beta},
-                   {"components", row.s.components},
-                   {"ratio", row.ratio},
-                   {"bytes", row.bytes},
-                   {"rmse", row.rmse},
-                   {"relative_rmse", row.rel},
-                   {"psnr_db", row.psnr},
-                   {"seconds", row.seconds},
-                   {"pareto", row.pareto}});
+    arr.push_back({row.s.codec, row.s.beta, row.s.components, row.ratio, row.bytes, row.rmse,
+                   row.rel, row.psnr, row.seconds, row.pareto});
   }
-  c.rep.json["compression"] = arr;
+  // Rank 0 holds the configurations' report; the other ranks fill one of their own.
+  if (!std::holds_alternative<StudyResult>(c.rep.result)) c.rep.result = StudyResult{};
+  StudyResult& res = std::get<StudyResult>(c.rep.result);
+  res.compression = std::move(arr);
   c.rep.text += t + "wrote " + dir + "/compression.csv, compression.md\n";
   if (r.b("mip")) {
     // The pyramid (docs/mip.md) of each codec setting at the same target: its size against the
@@ -177,16 +172,16 @@ void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o, 
        << o.base.dirs << "\n\nEach level's error against the exact box-filtered level of the "
        << "uncompressed simulation.\n\n| codec | bytes | vs single level | levels built | "
           "total time | relative RMSE per level (level 0 first) |\n|---|---|---|---|---|---|\n";
-    json pj = json::array();
+    std::vector<StudyResult::Pyramid> pj;
     std::string pt = "pyramids (--mip): codec, bytes, vs single, level errors\n";
     for (size_t k = 0; k < settings.size(); ++k) {
       PyramidReport rep;
       const CompressedBtf b = compressPyramid(raw, settings[k], c.progress(), c.ctx.cancel, &rep);
       const double vs = double(rep.fileBytes) / double(std::max<uint64_t>(1, rows[k].bytes));
-      json lv = json::array();
+      std::vector<StudyResult::Pyramid::Level> lv;
       std::string errs;
       for (const auto& l : rep.levels) {
-        lv.push_back({{"texels", {l.nu, l.nv}}, {"relative_rmse", l.relRmse}});
+        lv.push_back({l.nu, l.nv, l.relRmse});
         errs += (errs.empty() ? "" : " / ") + format("%.2f %%", 100 * l.relRmse);
       }
       pm << format("| %s | %llu | %.2f× | %.2f s | %.1f s | %s |\n", settings[k].codec.c_str(),
@@ -194,14 +189,10 @@ void compressionStudy(const Call& c, const Scene& scene, const StudyOptions& o, 
                    errs.c_str());
       pt += format("%-8s %10llu %6.2fx  %s\n", settings[k].codec.c_str(),
                    (unsigned long long)rep.fileBytes, vs, errs.c_str());
-      pj.push_back({{"codec", settings[k].codec},
-                    {"bytes", rep.fileBytes},
-                    {"size_vs_single_level", vs},
-                    {"level_seconds", rep.levelSeconds},
-                    {"seconds", rep.seconds},
-                    {"levels", lv}});
+      pj.push_back(
+          {settings[k].codec, rep.fileBytes, vs, rep.levelSeconds, rep.seconds, std::move(lv)});
     }
-    c.rep.json["pyramid"] = pj;
+    res.pyramid = std::move(pj);
     c.rep.text += pt + "wrote " + dir + "/pyramid.md\n";
   }
   std::filesystem::remove(raw);
@@ -263,23 +254,18 @@ void study(const Call& c) {
   writeStudy(st, dir);
   std::string t = format("%-52s %9s %8s %8s %8s %7s\n", "configuration", "time", "interp.",
                          "at set", "image", "Pareto");
-  json arr = json::array();
+  StudyResult& out = c.rep.result.emplace<StudyResult>();
+  out.scene = scene.name;
+  out.output = dir;
   for (const auto& res : st.results) {
     t += format("%-52s %8.2fs %7.2f%% %7.2f%% %7.1f%% %7s\n", res.config.label().c_str(),
                 res.seconds, 100 * res.probeRelRmse, 100 * res.setRelRmse, 100 * res.imageRelRmse,
                 res.pareto ? "*" : "");
-    arr.push_back({{"config", res.config.label()},
-                   {"seconds", res.seconds},
-                   {"probe_rel_rmse", res.probeRelRmse},
-                   {"set_rel_rmse", res.setRelRmse},
-                   {"image_rel_rmse", res.imageRelRmse},
-                   {"pareto", res.pareto}});
+    out.configurations.push_back({res.config.label(), res.seconds, res.probeRelRmse,
+                                  res.setRelRmse, res.imageRelRmse, res.pareto});
   }
   t += "wrote " + dir + "/study.csv, study.md, study.svg\n";
   c.rep.text = t;
-  c.rep.json["scene"] = scene.name;
-  c.rep.json["output"] = dir;
-  c.rep.json["configurations"] = arr;
   c.rep.summary =
       "wrote " + dir + "/study.csv (" + std::to_string(st.results.size()) + " configurations)";
   if (!r.s("codecs").empty()) compressionStudy(c, scene, o, comm);

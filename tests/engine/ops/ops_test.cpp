@@ -233,17 +233,97 @@ TEST(Ops, CompareReportsTheReferencesNoiseFloorAndTheExcess) {
   ops::Request cmp("compare");
   cmp.set("a", a).set("b", b).set("noise", a2);
   const ops::Report rep = ops::run(cmp, ctx);
-  const double rel = rep.json["relative_rmse"].get<double>();
-  const auto& n = rep.json["noise"];
+  const auto& res = rep.as<ops::CompareResult>();
+  const double rel = res.error.relRmse;
+  ASSERT_TRUE(res.noise);
+  const auto& n = *res.noise;
   const ErrorReport seeds = compareBtfs(*openBtf(a), *openBtf(a2), false);
   EXPECT_GT(seeds.relRmse, 0);  // two seeds differ
-  EXPECT_NEAR(n["floor_relative_rmse"].get<double>(), seeds.relRmse / std::sqrt(2.0), 1e-12);
-  EXPECT_NEAR(n["floor_rmse"].get<double>(), seeds.rmse / std::sqrt(2.0), 1e-12);
-  const double floorRel = n["floor_relative_rmse"].get<double>();
-  const double excess = n["excess_relative_rmse"].get<double>();
+  EXPECT_NEAR(n.floorRelRmse, seeds.relRmse / std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(n.floorRmse, seeds.rmse / std::sqrt(2.0), 1e-12);
+  const double floorRel = n.floorRelRmse;
+  const double excess = n.excessRelRmse;
+  // The JSON (--json) is the typed report serialised: same figures under the schema's keys.
+  EXPECT_EQ(rep.json["relative_rmse"].get<double>(), rel);
+  EXPECT_EQ(rep.json["noise"]["excess_relative_rmse"].get<double>(), excess);
+  // Asking for another command's report is an error naming the command.
+  try {
+    (void)rep.as<ops::CompressResult>();
+    ADD_FAILURE() << "as<CompressResult>() of a compare report";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'compare'"), std::string::npos) << e.what();
+  }
   EXPECT_NEAR(excess * excess + std::min(floorRel, rel) * std::min(floorRel, rel),
               std::max(rel * rel, floorRel * floorRel), 1e-12);
   EXPECT_LE(excess, rel);
+}
+
+}  // namespace
+}  // namespace btf
+
+namespace btf {
+namespace {
+
+// The typed reports: what the studio and the Python package read. Each holds the figures the
+// files themselves give, and the JSON is those fields under the schema's keys.
+TEST(Ops, TypedReportsHoldTheFilesFiguresAndSerialiseToTheirJson) {
+  const auto dir = test::tempDir("ops_typed");
+  const std::string raw = (dir / "a.btf").string(), mip = (dir / "a.cbtf").string(),
+                    one = (dir / "b.cbtf").string();
+  RunContext ctx;
+  ctx.progress = false;
+  ops::Request s("simulate");
+  s.set("scene", scenePath("brick")).set("output", raw).set("texels", "8").set("dirs", "4x8");
+  s.set("spp", "1");
+  const ops::Report sr = ops::run(s, ctx);
+  const auto& sim = sr.as<ops::SimulateResult>();
+  ASSERT_TRUE(sim.store);
+  EXPECT_FALSE(sim.compressed);
+  EXPECT_EQ(sim.nu, 8);
+  EXPECT_EQ(sim.directionCount, 32);
+  EXPECT_EQ(sim.store->outputBytes, fs::file_size(raw));
+  EXPECT_EQ(sim.store->abrdfValues, uint64_t(64) * 32 * 32);
+  EXPECT_EQ(sr.json["output_bytes"].get<uint64_t>(), sim.store->outputBytes);
+
+  ops::Request m("compress");
+  m.set("input", raw).set("output", mip).set("codec", "svd").setFlag("mip", true);
+  const ops::Report mr = ops::run(m, ctx);
+  const auto& pyr = mr.as<ops::CompressResult>();
+  ASSERT_TRUE(pyr.pyramid);
+  ASSERT_EQ(pyr.pyramid->levels.size(), 4u);  // 8², 4², 2², 1²
+  EXPECT_EQ(pyr.pyramid->levels[3].nu, 1);
+  EXPECT_EQ(pyr.file.compressedBytes, fs::file_size(mip));
+  EXPECT_NEAR(pyr.file.ratio, pyr.file.rawBytes / double(pyr.file.compressedBytes), 1e-9);
+  EXPECT_EQ(mr.json["levels"].size(), 4u);
+  EXPECT_EQ(mr.json["error"]["relative_rmse"].get<double>(), pyr.pyramid->levels[0].relRmse);
+
+  ops::Request c("compress");
+  c.set("input", raw).set("output", one).set("codec", "svd").setFlag("compare", true);
+  const ops::Report cr = ops::run(c, ctx);
+  const auto& cmp = cr.as<ops::CompressResult>();
+  EXPECT_FALSE(cmp.pyramid);
+  ASSERT_TRUE(cmp.error);
+  EXPECT_EQ(cmp.error->values, int64_t(64) * 32 * 32 * 3);
+  EXPECT_GE(cmp.error->relRmse, 0);
+  EXPECT_LE(cmp.error->relRmse, 1);
+  EXPECT_EQ(cr.json["error"]["psnr_db"].get<double>(), cmp.error->psnr);
+
+  ops::Request i("info");
+  i.set("btf", mip);
+  const ops::Report ir = ops::run(i, ctx);
+  const auto& inf = ir.as<ops::InfoResult>();
+  EXPECT_TRUE(inf.verified);
+  EXPECT_EQ(inf.format, "compressed");
+  const auto* z = std::get_if<ops::InfoResult::Compressed>(&inf.details);
+  ASSERT_NE(z, nullptr);
+  EXPECT_EQ(z->codec, "svd");
+  ASSERT_EQ(z->levels.size(), 4u);
+  // The file's own record of each level's error is what compress measured.
+  for (size_t k = 0; k < 4; ++k) {
+    ASSERT_TRUE(z->levels[k].relRmse) << k;
+    EXPECT_NEAR(*z->levels[k].relRmse, pyr.pyramid->levels[k].relRmse, 1e-9) << k;
+  }
+  EXPECT_EQ(ir.json["directions"]["count"].get<int>(), 32);
 }
 
 }  // namespace

@@ -356,11 +356,18 @@ TEST(Render, CommandWritesImagesAndReportsErrorsAgainstTheExactImage) {
   r.set("size", "24").set("spp", "1").set("object", "sphere");
   r.setFlag("quiet", true);
   const ops::Report rep = ops::run(r, quiet());
-  ASSERT_EQ(rep.json["images"].size(), 3u);
-  EXPECT_EQ(rep.json["images"][0]["mode"], "exact");
+  const auto& res = rep.as<ops::RenderResult>();
+  ASSERT_EQ(res.images.size(), 3u);
+  EXPECT_EQ(res.images[0].mode, "exact");
+  EXPECT_FALSE(res.images[0].errorVsExact);  // exact is the one the others are measured against
   for (const char* f : {"all.png", "all.exact.exr", "all.mapped.exr", "all.flat.exr"})
     EXPECT_TRUE(fs::exists(dir / f)) << f;
-  EXPECT_LT(rep.json["images"][2]["error_vs_exact"]["rel_rmse"].get<double>(), 0.01);
+  ASSERT_TRUE(res.images[2].errorVsExact);
+  EXPECT_LT(res.images[2].errorVsExact->relRmse, 0.01);
+  // The JSON is the typed report serialised.
+  EXPECT_EQ(rep.json["images"][2]["error_vs_exact"]["rel_rmse"].get<double>(),
+            res.images[2].errorVsExact->relRmse);
+  EXPECT_EQ(rep.json["images"].size(), 3u);
   // The exact EXR carries the coverage; a later run measures against it as a reference.
   int w = 0, h = 0;
   std::vector<float> alpha;
@@ -375,7 +382,10 @@ TEST(Render, CommandWritesImagesAndReportsErrorsAgainstTheExactImage) {
   q.set("reference", (dir / "all.exact.exr").string());
   q.setFlag("quiet", true);
   const ops::Report rq = ops::run(q, quiet());
-  EXPECT_LT(rq.json["images"][0]["error"]["rel_rmse"].get<double>(), 0.01);
+  const auto& flat = rq.as<ops::RenderResult>().images.at(0);
+  ASSERT_TRUE(flat.error);
+  EXPECT_LT(flat.error->relRmse, 0.01);
+  EXPECT_EQ(flat.error->mismatchPixels, 0);
   EXPECT_EQ(rq.json["images"][0]["error"]["mismatch_pixels"].get<int64_t>(), 0);
 }
 
