@@ -5,6 +5,7 @@
 #include <btf/sim/simulator.h>
 #include <gtest/gtest.h>
 #include <ui/job_requests.h>
+#include <ui/panels/panels.h>
 
 #include <filesystem>
 
@@ -133,4 +134,30 @@ TEST(JobRequests, CodecOptionsOfTheFormReachCompressAndStreamRequests) {
   EXPECT_DOUBLE_EQ(s.f("target_ratio"), f.targetRatio);
   // A raw simulation carries no codec.
   EXPECT_EQ(simulateRequest(f, "scene.json", "out.btf", "").s("compress"), "");
+}
+
+// The Jobs panel edits every option through the one ParamDecl widget: an option's value, as the
+// widget holds it, goes back into the request as the same value (no digit lost, ints stay ints,
+// flags and choices unchanged), for every option of every command.
+TEST(JobRequests, EveryOptionRoundTripsThroughTheParamWidgetsValue) {
+  int checked = 0;
+  for (const auto& c : ops::commands()) {
+    ops::Request r(c.name);
+    for (const auto& d : c.options) {
+      if (!r.has(d.name) || r.text(d.name).empty()) continue;  // unset, or a positional to give
+      const auto v = requestValue(r, d);
+      ops::Request back(c.name);
+      back.set(d.name, paramText(d, v));
+      EXPECT_EQ(back.text(d.name), r.text(d.name)) << c.name << " " << d.name;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 100);
+  // A value the widget produced that the declaration refuses keeps the engine's message.
+  ops::Request s("simulate");
+  const ParamDecl& spp = *s.decl().find("spp");
+  EXPECT_EQ(paramText(spp, 2.6), "3");
+  EXPECT_EQ(paramText(*s.decl().find("tolerance"), 0.123456789012), "0.123456789");
+  const std::string e = test::errorOf([&] { s.set("spp", paramText(spp, 0.0)); });
+  EXPECT_NE(e.find("--spp"), std::string::npos) << e;
 }

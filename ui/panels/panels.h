@@ -91,7 +91,24 @@ RenderSettings viewerRenderSettings(const ObjectState& o, double radius, int w, 
 /// shadow or a hit at a prism's edge) and the coverage differs on at most `maxMismatch`.
 bool checkMapped(const ObjectView& app, int w, int h, double maxDiffering, double maxMismatch,
                  nlohmann::json* result);
-/// One option of a request edited through its declaration: drags within the declared range,
+/// What the ParamDecl widget did this frame: `changed` with the new `value`; `merge` when it
+/// continues an edit begun on an earlier frame (a drag: one undo step).
+struct ParamEdit {
+  bool changed = false, merge = false;
+  nlohmann::ordered_json value;
+};
+/// The one widget for a value of a ParamDecl (the scene's parameters, a request's options): a
+/// drag within the declared range (Float, Int, vectors), a colour editor (Rgb), a combo of the
+/// choices (Enum), a checkbox (Bool), text (String, Path; a Path picks from `pickFolders`); the
+/// declaration's doc is the tooltip. The caller commits the value and shows the engine's answer.
+ParamEdit paramWidget(const std::string& label, const ParamDecl& d,
+                      const nlohmann::ordered_json& value,
+                      const std::vector<std::string>& pickFolders = {});
+/// A request's option as the widget's value (a number, a flag, text; null when unset).
+nlohmann::ordered_json requestValue(const ops::Request& r, const ParamDecl& d);
+/// A widget value as a request's text ("12", "0.25", "true", the string itself).
+std::string paramText(const ParamDecl& d, const nlohmann::ordered_json& v);
+/// One option of a request edited through the ParamDecl widget: drags within the declared range,
 /// combos for choices, a checkbox for flags, text for the rest; the doc is the tooltip. A
 /// refused value leaves the request as it was and puts the engine's message in `error`.
 /// Returns true when the request changed.

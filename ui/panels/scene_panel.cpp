@@ -16,94 +16,24 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// One parameter widget; commits through App::setParam (drags merge into one undo step).
+// One parameter through the shared widget; commits through App::setParam (drags merge into one
+// undo step); the engine's refusal is shown below the field.
 void editParam(const SceneView& app, const std::string& ptr, const ParamDecl& d,
                const json& value) {
   ImGui::PushID(ptr.c_str());
-  const char* label = d.name.c_str();
-  const double lo = std::isfinite(d.min) ? d.min : -1e6, hi = std::isfinite(d.max) ? d.max : 1e6;
-  const float speed = float(std::isfinite(d.max) && std::isfinite(d.min) ? (hi - lo) / 400 : 0.01);
-  auto commit = [&](const json& v) {
+  std::vector<std::string> folders;
+  if (d.type == ParamType::Path) {
+    if (!app.doc.scene().baseDir.empty()) folders.push_back(app.doc.scene().baseDir);
+    folders.push_back(BTF_RESOURCE_DIR "/meshes");
+  }
+  const ParamEdit e = paramWidget(d.name, d, value, folders);
+  if (e.changed) {
     try {
-      app.act.setParam(ptr, v, !ImGui::IsItemActivated());
+      app.act.setParam(ptr, e.value, e.merge);
     } catch (const std::exception&) {
       // shown below the field
     }
-  };
-  switch (d.type) {
-    case ParamType::Float: {
-      double v = value.get<double>();
-      if (ImGui::DragScalar(label, ImGuiDataType_Double, &v, speed, &lo, &hi, "%.4g")) commit(v);
-      break;
-    }
-    case ParamType::Int: {
-      int v = value.get<int>();
-      if (ImGui::DragInt(label, &v, 0.2f, int(std::max(lo, -1e9)), int(std::min(hi, 1e9))))
-        commit(v);
-      break;
-    }
-    case ParamType::Bool: {
-      bool v = value.get<bool>();
-      if (ImGui::Checkbox(label, &v)) commit(v);
-      break;
-    }
-    case ParamType::Rgb: {
-      float c[3] = {value[0].get<float>(), value[1].get<float>(), value[2].get<float>()};
-      if (ImGui::ColorEdit3(label, c, ImGuiColorEditFlags_Float)) commit({c[0], c[1], c[2]});
-      break;
-    }
-    case ParamType::Vec2:
-    case ParamType::Vec3: {
-      const int n = d.type == ParamType::Vec2 ? 2 : 3;
-      double v[3] = {0, 0, 0};
-      for (int i = 0; i < n; ++i) v[i] = value[size_t(i)].get<double>();
-      if (ImGui::DragScalarN(label, ImGuiDataType_Double, v, n, speed, &lo, &hi, "%.4g")) {
-        json a = json::array();
-        for (int i = 0; i < n; ++i) a.push_back(v[i]);
-        commit(a);
-      }
-      break;
-    }
-    case ParamType::Int2: {
-      int v[2] = {value[0].get<int>(), value[1].get<int>()};
-      if (ImGui::DragInt2(label, v, 0.2f)) commit({v[0], v[1]});
-      break;
-    }
-    case ParamType::Enum: {
-      const std::string cur = value.get<std::string>();
-      if (ImGui::BeginCombo(label, cur.c_str())) {
-        for (const auto& c : d.choices)
-          if (ImGui::Selectable(c.c_str(), c == cur)) commit(c);
-        ImGui::EndCombo();
-      }
-      break;
-    }
-    case ParamType::String:
-    case ParamType::Path: {
-      std::string s = value.get<std::string>();
-      if (ImGui::InputText(label, &s, ImGuiInputTextFlags_EnterReturnsTrue)) commit(s);
-      if (d.type == ParamType::Path) {
-        // A file picker over the scene's folder and the bundled meshes.
-        ImGui::SameLine();
-        if (ImGui::Button("...")) ImGui::OpenPopup("files");
-        if (ImGui::BeginPopup("files")) {
-          std::vector<fs::path> dirs = {BTF_RESOURCE_DIR "/meshes"};
-          if (!app.doc.scene().baseDir.empty()) dirs.insert(dirs.begin(), app.doc.scene().baseDir);
-          for (const auto& dir : dirs) {
-            std::error_code ec;
-            for (const auto& e : fs::directory_iterator(dir, ec)) {
-              const std::string ext = e.path().extension().string();
-              if (ext == ".json") continue;
-              if (ImGui::Selectable(e.path().string().c_str())) commit(e.path().string());
-            }
-          }
-          ImGui::EndPopup();
-        }
-      }
-      break;
-    }
   }
-  if (ImGui::IsItemHovered() && !d.doc.empty()) ImGui::SetTooltip("%s", d.doc.c_str());
   auto it = app.fieldErrors.find(ptr);
   if (it != app.fieldErrors.end()) {
     ImGui::PushTextWrapPos(0);
