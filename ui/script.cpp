@@ -422,6 +422,9 @@ bool App::scriptStep() {
              if (a.contains(k) && !a[k].is_number())
                return fail(std::string("object: ") + k + " must be a number");
            obj.shape = a["object"];
+           // Nobody interacts while a script waits for the pass: bands of 250 ms (the same
+           // pixels in fewer frames); "wait": 0 measures the interactive bands of 10 ms.
+           obj.bandMs = a.contains("wait") && a["wait"] == 0 ? 10 : 250;
            // Texel levels of a pyramid file (docs/mip.md): on/off, false colour, tiling.
            obj.mip = a.value("mip", obj.mip);
            obj.showLevel = a.value("show_level", obj.showLevel);

@@ -573,8 +573,8 @@ void drawObjectViewer(const ObjectView& app) {
   // its frame rate while llvmpipe decodes (the status bar shows the whole pass's time). Each
   // band's height follows the cost per row measured on the band before (at most doubling from
   // one band to the next: rows of background cost little, rows through the object much more),
-  // aiming at kBandMs a frame.
-  constexpr double kBandMs = 10;
+  // aiming at o.bandMs a frame.
+  const double kBandMs = o.bandMs;
   const int vi = mapped ? 1 : 0;
   if (key != o.renderedKey || o.bound != app.insp.compressed) {
     o.renderedKey = key;
