@@ -531,8 +531,8 @@ int App::run() {
     frameHistory.push_back(frameMs);
     if (frameHistory.size() > 240) frameHistory.pop_front();
     if (!m_script.is_null() && !scriptStep()) m_quit = true;
-    // A script waiting on a job draws ten frames a second, not as many as the CPU renders: a
-    // software-rendered frame costs as much as the job's own work.
+    // A script waiting on a job or the preview worker draws ten frames a second, not as many as
+    // the CPU renders: a software-rendered frame costs as much as the worker's own work.
     if (m_waitOnJob && m_waitFor)
       std::this_thread::sleep_until(now + std::chrono::milliseconds(100));
   }

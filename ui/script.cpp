@@ -214,7 +214,7 @@ bool App::scriptStep() {
                  m_report["preview_all_stages_ms"].push_back(pv.result.imageSeconds * 1e3);
                  return true;
                },
-               a["wait_preview"].get<double>(), "the preview");
+               a["wait_preview"].get<double>(), "the preview", true);  // a worker's job
            return std::nullopt;
          }},
         {"save_preview",
