@@ -5,7 +5,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all deps build demo test bench clean studio screenshots sanitize fuzz tsan
+.PHONY: all deps build venv demo test bench clean studio screenshots sanitize fuzz tsan
 
 all: build
 
@@ -29,7 +29,11 @@ studio: build
 screenshots: build
 	bash scripts/studio-screenshots.sh $(BUILD_DIR) docs/images
 
-test: build
+# The project's venv for the Mitsuba 3 plugin (pinned, from PyPI; docs/python.md).
+venv: build
+	bash scripts/python-venv.sh $(BUILD_DIR)
+
+test: build venv
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
 
 # The engine's tests under AddressSanitizer + UndefinedBehaviorSanitizer with leak checking

@@ -2,6 +2,7 @@
 // openBtf, so each accepts a raw store or a compressed file alike.
 #include <btf/compress/compress.h>
 #include <btf/compress/export.h>
+#include <btf/compress/lookup.h>
 #include <btf/compress/mip.h>
 #include <btf/core/rng.h>
 #include <btf/core/sysinfo.h>
@@ -426,9 +427,9 @@ void info(const Call& c) {
   InfoResult res = header(path, "raw", I);
   res.fileBytes = rd.layout().totalBytes;
   res.verified = ok;
-  res.details = InfoResult::Raw{I.Lx,         I.Ly,     I.chunkTexels,         I.chunks(),
-                                I.spp,        I.shadows, I.shadowBias,         I.seed,
-                                parsedOrString(I.plan), I.hasVmf, v.badChunks, v.vmfOk};
+  res.details = InfoResult::Raw{
+      I.Lx,         I.Ly,   I.chunkTexels,          I.chunks(), I.spp,       I.shadows,
+      I.shadowBias, I.seed, parsedOrString(I.plan), I.hasVmf,   v.badChunks, v.vmfOk};
   std::string t = format("%s: raw BTF store, %s\n", path.c_str(),
                          formatBytes(double(rd.layout().totalBytes)).c_str());
   t += format("  scene        %s (hash %s)\n  tile         %g x %g\n  texels       %d x %d\n",
@@ -493,20 +494,8 @@ void slice(const Call& c) {
   if (!view.empty()) {
     double tv, pv;
     parseAnglePair(view, "--view", &tv, &pv);
-    const auto vw = dirs.interpolate(deg2rad(tv), deg2rad(pv));
-    std::vector<float> img(size_t(I.texels()) * 3, 0.f);
-    parallelForChunks(
-        I.texels(), 256,
-        [&](int64_t t0, int64_t t1) {
-          for (int64_t t = t0; t < t1; ++t)
-            for (const auto& v : vw)
-              for (const auto& l : lw) {
-                const auto val = d->value(t, v.index, l.index);
-                const float w = float(v.weight * l.weight);
-                for (int k = 0; k < 3; ++k) img[size_t(t) * 3 + size_t(k)] += w * val[size_t(k)];
-              }
-        },
-        c.ctx.cancel);
+    const std::vector<float> img =
+        spatialSlice(*d, deg2rad(tv), deg2rad(pv), deg2rad(tl), deg2rad(pl), c.ctx.cancel);
     c.ctx.check("slice");
     meta.push_back({"view_theta_phi_deg", format("%.10g,%.10g", tv, pv)});
     writeRgbImage(out, I.nu, I.nv, img, scale, true, meta);
