@@ -145,3 +145,85 @@ def test_bad_properties_are_refused_with_the_reason(square, tmp_path):
         mi.load_dict({"type": "btf", "filename": str(square), "level": 7})
     with pytest.raises(Exception, match="BTF not found"):
         mi.load_dict({"type": "btf", "filename": str(tmp_path / "none.btf")})
+
+
+# --- btfsim export --format rgl-bsdf, read by Mitsuba's own `measured` BSDF ------------------
+
+FLAT = ('{"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": [0.6, 0.4, 0.2]}}, '
+        '"parts": [{"type": "plane", "material": "m"}]}')
+
+
+def pairs20():
+    rng = np.random.default_rng(3)
+    p = [((0, 0), (45, 0)), ((30, 90), (30, 270)), ((60, 10), (20, 200)), ((75, 0), (75, 180)),
+         ((80, 45), (10, 0)), ((85, 120), (40, 300)), ((88, 10), (60, 200)), ((20, 0), (87, 90))]
+    while len(p) < 20:
+        p.append(((float(rng.uniform(0, 85)), float(rng.uniform(0, 360))),
+                  (float(rng.uniform(0, 85)), float(rng.uniform(0, 360)))))
+    return p
+
+
+def measured_eval(m, view, light):
+    si = mi.SurfaceInteraction3f()
+    si.wi = mi.Vector3f(*unit(*view))
+    si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+    return np.array(m.eval(mi.BSDFContext(), si, mi.Vector3f(*unit(*light))))
+
+
+@pytest.fixture(scope="module")
+def rgl(tmp_path_factory):
+    from conftest import btfsim, scene
+    d = tmp_path_factory.mktemp("rgl")
+    (d / "flat.json").write_text(FLAT)
+    out = {}
+    for name, src, texels in (("flat", d / "flat.json", "4"), ("brick", scene("brick"), "16")):
+        btf = d / f"{name}.btf"
+        btfsim("simulate", src, "-o", btf, "--texels", texels, "--dirs", "8x16", "--spp", "2", "-q")
+        bsdf = d / f"{name}.bsdf"
+        btfsim("export", btf, "--format", "rgl-bsdf", "-o", bsdf, "-q")
+        out[name] = (btf, bsdf)
+    return out
+
+
+def test_the_rgl_export_of_a_flat_lambertian_tile_is_rho_over_pi(rgl):
+    use("scalar_rgb")
+    m = mi.load_dict({"type": "measured", "filename": str(rgl["flat"][1])})
+    rho = np.array([0.6, 0.4, 0.2])
+    for view, light in pairs20():
+        want = rho / np.pi * np.cos(np.radians(light[0]))
+        got = measured_eval(m, view, light)
+        assert np.all(np.abs(got - want) <= 0.02 * want.max()), (view, light, got, want)
+
+
+def test_the_rgl_export_of_brick_reproduces_the_tile_average_within_three_percent(rgl):
+    use("scalar_rgb")
+    btf, bsdf = rgl["brick"]
+    b = btfstudio.open(btf)
+    m = mi.load_dict({"type": "measured", "filename": str(bsdf)})
+    centres = np.array([[(i + .5) / b.nu, (j + .5) / b.nv] for j in range(b.nv)
+                        for i in range(b.nu)])
+    worst = 0
+    for view, light in pairs20():
+        v, l = np.array(unit(*view)), np.array(unit(*light))
+        want = b.values(centres, np.tile(l, (len(centres), 1)),
+                        np.tile(v, (len(centres), 1))).mean(0) * l[2]
+        got = measured_eval(m, view, light)
+        worst = max(worst, np.abs(got - want).max() / want.max())
+    assert worst <= 0.03, worst
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_the_rgl_export_renders_nan_free_at_grazing_directions(rgl, variant):
+    use(variant)
+    m = mi.load_dict({"type": "measured", "filename": str(rgl["brick"][1])})
+    ctx = mi.BSDFContext()
+    for ti in (0.0, 45.0, 85.0, 89.0, 89.9):
+        for to in (0.0, 60.0, 88.0, 89.9, 90.0, 100.0):
+            si = dr.zeros(mi.SurfaceInteraction3f)
+            si.wi = mi.Vector3f(*unit(ti, 30.0))
+            si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+            f = np.array(m.eval(ctx, si, mi.Vector3f(*unit(to, 250.0)))).ravel()
+            p = np.array(m.pdf(ctx, si, mi.Vector3f(*unit(to, 250.0)))).ravel()
+            assert np.all(np.isfinite(f)) and np.all(f >= 0) and np.all(np.isfinite(p))
+            _, w = m.sample(ctx, si, 0.5, mi.Point2f(0.3, 0.8))
+            assert np.all(np.isfinite(np.array(w)))

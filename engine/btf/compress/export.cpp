@@ -33,7 +33,13 @@ std::string angleBlock(const char* t, const char* p, double thDeg, double phDeg)
   return buf;
 }
 
-// Atomic file write: FILE.partial then rename.
+template <class T>
+void put(std::string& s, T v) {
+  s.append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+
+}  // namespace
+
 void writeFileAtomic(const std::string& path, const std::string& bytes) {
   const std::string partial = path + ".partial";
   {
@@ -47,13 +53,6 @@ void writeFileAtomic(const std::string& path, const std::string& bytes) {
   std::filesystem::rename(partial, path, ec);
   if (ec) throw Error(path + ": cannot rename into place (" + ec.message() + ")");
 }
-
-template <class T>
-void put(std::string& s, T v) {
-  s.append(reinterpret_cast<const char*>(&v), sizeof v);
-}
-
-}  // namespace
 
 static std::string fmtDeg(double d) {
   char b[32];

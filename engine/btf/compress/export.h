@@ -5,7 +5,9 @@
 #pragma once
 #include <btf/compress/codec.h>
 
+#include <array>
 #include <string>
+#include <vector>
 
 namespace btf {
 
@@ -52,6 +54,33 @@ struct MerlReport {
 /// is measured and reported); bins with every sample below the horizon are missing (−1).
 MerlReport exportMerl(const Decoder& d, const std::string& file, int phiSamples, bool progress,
                       const CancelToken* cancel = nullptr);
+
+/// The tile-averaged aBRDF as an RGL measured-BSDF tensor file (docs/exports.md; Dupuy & Jakob
+/// 2018's format, read by Mitsuba 3's and pbrt-v4's `measured` BSDF). Parameterised by the view
+/// (θ_i, φ_i: `thetaI` elevations in [0, 89°], `phiI` azimuths over [−π, π], anisotropic) and
+/// the half vector in Dupuy & Jakob's unit square (θ_m = u²·π/2, φ_m = (2v − 1)·π) on a
+/// `resolution`² grid; `rgb` holds aBRDF(light = reflect(view, m), view) · cos θ_light there
+/// (jacobian = 0), `luminance` its luminance (the sampling density), `vndf` a uniform warp
+/// (the half-vector grid is the parameterisation), `ndf` and `sigma` the micro-geometry's own
+/// normal distribution and projected area from the tile's facets (area-weighted, upper
+/// hemisphere), so that a reader may use them.
+struct RglOptions {
+  int thetaI = 16, phiI = 33, resolution = 48, ndfResolution = 64, sigmaResolution = 32;
+};
+struct RglReport {
+  uint64_t bytes = 0;
+  int thetaI = 0, phiI = 0, resolution = 0;
+  double ndfProjectedArea = 0;  // ∫ D(m) cos θ_m dω_m over the upper hemisphere (1: a height field)
+  double facets = 0;            // facets that face up
+};
+/// `facets`: the tile's triangles (face normal n_f, area A_f: each n·A in `areaNormals`) over a
+/// tile of area `tileArea`.
+RglReport exportRglBsdf(const Decoder& d, const std::vector<std::array<double, 3>>& areaNormals,
+                        double tileArea, const std::string& file, const std::string& description,
+                        const CancelToken* cancel = nullptr, const RglOptions& o = {});
+
+/// FILE.partial written then renamed onto FILE.
+void writeFileAtomic(const std::string& path, const std::string& bytes);
 
 /// Bin centre of MERL indices → (θh, θd, φd) in radians, and (θh, θd, φd, φh) → (ω_i, ω_o).
 void merlBinCentre(int thetaHalf, int thetaDiff, int phiDiff, double* th, double* td, double* pd);

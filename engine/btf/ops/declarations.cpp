@@ -212,16 +212,21 @@ std::vector<CommandDecl> build() {
     cs.push_back(c);
   }
   {
-    CommandDecl c{
-        "export", "export a BTF to the Bonn UBO2003/UBO2014 or MERL formats", {}, {"input"}, {}};
+    CommandDecl c{"export",
+                  "export a BTF to the Bonn UBO2003/UBO2014, MERL or RGL measured-BSDF formats",
+                  {},
+                  {"input"},
+                  {}};
     c.options = {
         path("input", "BTF (.btf or .cbtf)"),
-        en("format", "ubo2014", {"ubo2003", "ubo2014", "merl"}, "export format"),
+        en("format", "ubo2014", {"ubo2003", "ubo2014", "merl", "rgl-bsdf"},
+           "export format (rgl-bsdf: Mitsuba 3's and pbrt-v4's measured BSDF)"),
         path("output", "folder (ubo2003), .zip (ubo2003 --zip) or file"),
         in("components", 0, 0, 4096, "ubo2014: components per channel (0 = from --target-rmse)"),
         fl("target_rmse", 0.01, 1e-4, 0.5,
            "ubo2014: relative RMSE the export may add to its input"),
         in("phi_samples", 16, 1, 1024, "merl: half-vector azimuths averaged per bin"),
+        in("resolution", 48, 4, 256, "rgl-bsdf: half-vector grid per side (per view direction)"),
         en("image_format", "exr", {"exr", "png", "jpg"},
            "ubo2003: linear float EXR, or 8-bit sRGB PNG / JPEG (scaled by --scale)"),
         flag("zip", "ubo2003: one .zip archive instead of a folder (what btf-extractor opens)"),

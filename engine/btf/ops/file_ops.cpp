@@ -9,6 +9,7 @@
 #include <btf/directions/direction_set.h>
 #include <btf/io/image_io.h>
 #include <btf/ops/internal.h>
+#include <btf/render/renderer.h>
 #include <btf/store/btf_store.h>
 
 #include <algorithm>
@@ -279,6 +280,28 @@ void exportBtf(const Call& c) {
           format("the export's error (%.2f %%) exceeds --target-rmse %.2f %%: the training "
                  "texels' spectra underestimate it; give --components",
                  100 * e.measuredRmse, 100 * target));
+  } else if (fmt == "rgl-bsdf") {
+    // The NDF and projected area from the tile's own facets (the file's scene, rebuilt).
+    const BtfTile tile = tileOfBtf(d->info(), r.s("input"), parseBytes(r.s("memory_budget")));
+    const TileGeometry& g = tile.geometry;
+    std::vector<std::array<double, 3>> areaNormals(g.triangleCount());
+    for (size_t t = 0; t < g.triangleCount(); ++t) {
+      const Vec3 n = g.faceNormal(uint32_t(t));
+      areaNormals[t] = {0.5 * n.x, 0.5 * n.y, 0.5 * n.z};
+    }
+    RglOptions o;
+    o.resolution = r.i("resolution");
+    const RglReport e =
+        exportRglBsdf(*d, areaNormals, g.Lx * g.Ly, out,
+                      "BTF Studio tile-averaged aBRDF of " + r.s("input") + " (scene " +
+                          d->info().sceneName + ", level " + std::to_string(r.i("level")) + ")",
+                      c.ctx.cancel, o);
+    res.details = ExportResult::Rgl{e.bytes, e.thetaI, e.phiI, e.resolution, e.ndfProjectedArea};
+    c.rep.text = format(
+        "wrote %s (%s): RGL measured BSDF, %d x %d view directions, %d² half vectors, NDF "
+        "from %.0f upward facets (projected area %.4f)\n",
+        out.c_str(), formatBytes(double(e.bytes)).c_str(), e.thetaI, e.phiI, e.resolution, e.facets,
+        e.ndfProjectedArea);
   } else {
     const MerlReport e = exportMerl(*d, out, r.i("phi_samples"), c.progress(), c.ctx.cancel);
     res.details =

@@ -6,8 +6,12 @@ namespace btf::ops {
 
 namespace {
 
-Json pair(double a, double b) { return Json::array({a, b}); }
-Json texels(int nu, int nv) { return Json::array({nu, nv}); }
+Json pair(double a, double b) {
+  return Json::array({a, b});
+}
+Json texels(int nu, int nv) {
+  return Json::array({nu, nv});
+}
 
 void put(Json& j, const CodecFigures& f) {
   j["codec"] = f.params;
@@ -149,6 +153,12 @@ Json json(const ExportResult& r) {
     j["anisotropy"] = e->anisotropy;
     j["asymmetry"] = e->asymmetry;
     j["asymmetry_max"] = e->asymmetryMax;
+  } else if (const auto* e = std::get_if<ExportResult::Rgl>(&r.details)) {
+    j["bytes"] = e->bytes;
+    j["theta_i"] = e->thetaI;
+    j["phi_i"] = e->phiI;
+    j["resolution"] = e->resolution;
+    j["ndf_projected_area"] = e->ndfProjectedArea;
   }
   return j;
 }
@@ -411,7 +421,9 @@ Json toJson(const ClusterFigures& c) {
           {"per_rank", ranks}};
 }
 
-Json toJson(const ErrorReport& e) { return Json::parse(errorReportJson(e)); }
+Json toJson(const ErrorReport& e) {
+  return Json::parse(errorReportJson(e));
+}
 
 Json toJson(const ImageError& e) {
   Json j;

@@ -130,6 +130,11 @@ struct ExportUbo2014 {
   std::array<int, 3> components{};
   double factorisationRelRmse = 0, exportRelRmse = 0;
 };
+struct ExportRgl {
+  uint64_t bytes = 0;
+  int thetaI = 0, phiI = 0, resolution = 0;
+  double ndfProjectedArea = 0;
+};
 struct ExportMerl {
   int64_t bins = 0, missingBins = 0;
   double anisotropy = 0, asymmetry = 0, asymmetryMax = 0;
@@ -141,7 +146,8 @@ struct ExportResult {
   using Ubo2003 = ExportUbo2003;
   using Ubo2014 = ExportUbo2014;
   using Merl = ExportMerl;
-  std::variant<Ubo2003, Ubo2014, Merl> details;
+  using Rgl = ExportRgl;
+  std::variant<Ubo2003, Ubo2014, Merl, Rgl> details;
 };
 
 struct PlanResult {
@@ -197,9 +203,9 @@ struct SliceResult {
   std::string input, output;
   std::array<double, 2> light{};
   int level = 0;
-  std::string kind;                    // "spatial" or "hemisphere"
-  std::array<double, 2> view{};        // spatial
-  std::string texel;                   // hemisphere: "u,v" or "avg"
+  std::string kind;              // "spatial" or "hemisphere"
+  std::array<double, 2> view{};  // spatial
+  std::string texel;             // hemisphere: "u,v" or "avg"
   int width = 0, height = 0;
 };
 
