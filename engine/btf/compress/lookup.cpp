@@ -31,7 +31,8 @@ int64_t wrap(int64_t i, int n) {
 
 namespace {
 
-// The lookups over any source of values: value(t, view, light) → three floats.
+// The lookups over any source of values: value(t, view, light) → three floats. The (view, light)
+// pairs and their weights once per lookup, then each of the four texels a run of reads.
 template <class Value>
 void lookups(const BtfInfo& I, size_t n, const double* uv, const double* wi, const double* wo,
              float* out, const CancelToken* cancel, const Value& value) {
@@ -49,30 +50,36 @@ void lookups(const BtfInfo& I, size_t n, const double* uv, const double* wi, con
           const int nv = nl ? weightsOf(dirs, wo + size_t(k) * 3, wv) : 0;
           const double u = uv[size_t(k) * 2], v = uv[size_t(k) * 2 + 1];
           if (!nv || !std::isfinite(u) || !std::isfinite(v)) continue;
+          double pw[16];
+          int pv[16], pl[16];
+          int np = 0;
+          for (int a = 0; a < nv; ++a)
+            for (int b = 0; b < nl; ++b) {
+              const double ww = wv[a].weight * wl[b].weight;
+              if (ww == 0) continue;
+              pw[np] = ww, pv[np] = wv[a].index, pl[np++] = wl[b].index;
+            }
           // As Decoder::evaluateAt: texel centres at integer + ½, bilinear over four texels, each
           // texel's value interpolated between the set's directions in double, rounded once.
           const double fx = (u - std::floor(u)) * I.nu - 0.5;
           const double fy = (v - std::floor(v)) * I.nv - 0.5;
           const double x0 = std::floor(fx), y0 = std::floor(fy);
           const double ax = fx - x0, ay = fy - y0;
-          std::array<double, 3> acc{0, 0, 0};
+          double acc[3] = {0, 0, 0};
           for (int j = 0; j < 2; ++j)
             for (int i = 0; i < 2; ++i) {
               const double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
               if (w == 0) continue;
               const int64_t t =
                   wrap(int64_t(x0) + i, I.nu) + int64_t(I.nu) * wrap(int64_t(y0) + j, I.nv);
-              std::array<double, 3> tv{0, 0, 0};
-              for (int a = 0; a < nv; ++a)
-                for (int b = 0; b < nl; ++b) {
-                  const double ww = wv[a].weight * wl[b].weight;
-                  if (ww == 0) continue;
-                  const auto val = value(t, wv[a].index, wl[b].index);
-                  for (int c = 0; c < 3; ++c) tv[size_t(c)] += ww * val[size_t(c)];
-                }
-              for (int c = 0; c < 3; ++c) acc[size_t(c)] += w * float(tv[size_t(c)]);
+              double tv[3] = {0, 0, 0};
+              for (int p = 0; p < np; ++p) {
+                const auto x = value(t, pv[p], pl[p]);
+                for (int c = 0; c < 3; ++c) tv[c] += pw[p] * x[size_t(c)];
+              }
+              for (int c = 0; c < 3; ++c) acc[c] += w * float(tv[c]);
             }
-          for (int c = 0; c < 3; ++c) o[c] = float(acc[size_t(c)]);
+          for (int c = 0; c < 3; ++c) o[c] = float(acc[c]);
         }
       },
       cancel);
@@ -89,61 +96,10 @@ void evaluateBatch(const Decoder& d, size_t n, const double* uv, const double* w
 
 void evaluateBatch(const BtfInfo& info, const float* values, size_t n, const double* uv,
                    const double* wi, const double* wo, float* out, const CancelToken* cancel) {
-  // The same sums as lookups() over a dense array, organised for speed: the (view, light) pairs
-  // and their weights once per lookup, then each of the four texels a run of gathers.
-  const BtfInfo& I = info;
-  const size_t nd = size_t(I.nDirs());
-  const size_t stride = nd * nd * 3;
-  const DirectionSet dirs = DirectionSet::fromName(I.directionSet);
-  if (dirs.size() != I.nDirs())
-    throw Error("the direction set of the BTF does not match its header");
-  parallelForChunks(
-      int64_t(n), 4096,
-      [&](int64_t k0, int64_t k1) {
-        for (int64_t k = k0; k < k1; ++k) {
-          float* o = out + size_t(k) * 3;
-          o[0] = o[1] = o[2] = 0.f;
-          DirWeight wl[4], wv[4];
-          const int nl = weightsOf(dirs, wi + size_t(k) * 3, wl);
-          const int nv = nl ? weightsOf(dirs, wo + size_t(k) * 3, wv) : 0;
-          const double u = uv[size_t(k) * 2], v = uv[size_t(k) * 2 + 1];
-          if (!nv || !std::isfinite(u) || !std::isfinite(v)) continue;
-          double pw[16];
-          size_t po[16];
-          int np = 0;
-          for (int a = 0; a < nv; ++a)
-            for (int b = 0; b < nl; ++b) {
-              const double ww = wv[a].weight * wl[b].weight;
-              if (ww == 0) continue;
-              pw[np] = ww;
-              po[np++] = (size_t(wv[a].index) * nd + size_t(wl[b].index)) * 3;
-            }
-          const double fx = (u - std::floor(u)) * I.nu - 0.5;
-          const double fy = (v - std::floor(v)) * I.nv - 0.5;
-          const double x0 = std::floor(fx), y0 = std::floor(fy);
-          const double ax = fx - x0, ay = fy - y0;
-          double acc[3] = {0, 0, 0};
-          for (int j = 0; j < 2; ++j)
-            for (int i = 0; i < 2; ++i) {
-              const double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
-              if (w == 0) continue;
-              const float* tex = values + size_t(wrap(int64_t(x0) + i, I.nu) +
-                                                 int64_t(I.nu) * wrap(int64_t(y0) + j, I.nv)) *
-                                              stride;
-              double tv[3] = {0, 0, 0};
-              for (int p = 0; p < np; ++p) {
-                const float* x = tex + po[p];
-                tv[0] += pw[p] * x[0];
-                tv[1] += pw[p] * x[1];
-                tv[2] += pw[p] * x[2];
-              }
-              for (int c = 0; c < 3; ++c) acc[c] += w * float(tv[c]);
-            }
-          for (int c = 0; c < 3; ++c) o[c] = float(acc[c]);
-        }
-      },
-      cancel);
-  throwIfCancelled(cancel, "lookup");
+  const size_t nd = size_t(info.nDirs());
+  lookups(info, n, uv, wi, wo, out, cancel, [&](int64_t t, int view, int light) {
+    return values + ((size_t(t) * nd + size_t(view)) * nd + size_t(light)) * 3;
+  });
 }
 
 std::vector<float> allValues(const Decoder& d, const CancelToken* cancel) {
