@@ -119,7 +119,7 @@ TEST(BtfsimCompress, BadInputsAreClearErrors) {
       {"compare " + a + " " + (dir / "b.btf").string(), "texel grids differ"},
       {"compare " + a + " " + (dir / "junk.cbtf").string(), "junk.cbtf: truncated file"},
       {"export " + a + " --format obj -o x",
-       "--format: must be one of ubo2003, ubo2014, merl (got 'obj')"},
+       "--format: must be one of ubo2003, ubo2014, merl, rgl-bsdf (got 'obj')"},
       {"compress " + a + " -o x.cbtf --codec svd --memory-budget 1M",
        "refusing to start: compressing"},
       {"info " + (dir / "junk.cbtf").string(), "truncated file"},
