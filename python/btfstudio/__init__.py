@@ -116,6 +116,17 @@ def read_image(path) -> np.ndarray:
     return _core.read_image(os.fspath(path))
 
 
+def tile_geometry(scene) -> dict:
+    """The scene file's tile as the simulator builds it (periodic in x and y with ``size``):
+    ``positions`` and ``normals`` (V x 3 float32, tile units, z up; normals the shading normals),
+    ``triangles`` (T x 3 uint32), ``materials`` (T uint16, indices into ``material_names``),
+    ``z_range``, and ``scene``: the canonical scene (every parameter written) as a dict."""
+    import json
+    d = dict(_core.tile_geometry(os.fspath(scene)))
+    d["scene"] = json.loads(d.pop("scene_json"))
+    return d
+
+
 def open(path: str, memory_budget: str = "4G") -> Btf:  # noqa: A001 (the package's verb)
     """Opens a .btf store or a .cbtf file of any codec (raises BtfError naming what is wrong)."""
     return Btf(path, memory_budget)

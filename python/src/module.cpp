@@ -9,7 +9,9 @@
 #include <btf/core/progress.h>
 #include <btf/core/sysinfo.h>
 #include <btf/directions/direction_set.h>
+#include <btf/geometry/tile_builder.h>
 #include <btf/io/image_io.h>
+#include <btf/scene/scene.h>
 #include <btf/ops/ops.h>
 #include <btf/store/btf_store.h>
 #include <btf/store/levels.h>
@@ -341,6 +343,43 @@ py::list commandDecls() {
   return out;
 }
 
+// The tile's micro-geometry as the simulator builds it: for renderers of our own (the Mitsuba
+// reference of docs/render.md) that trace the real relief instead of the BTF.
+py::dict tileGeometry(const std::string& path) {
+  Scene scene;
+  TileGeometry g;
+  released([&] {
+    scene = loadScene(path);
+    g = buildTileGeometry(scene);
+    return 0;
+  });
+  const size_t nv = g.mesh.pos.size(), nt = g.mesh.tri.size();
+  py::array_t<float> pos({nv, size_t(3)}), nrm({nv, size_t(3)});
+  py::array_t<uint32_t> tri({nt, size_t(3)});
+  py::array_t<uint16_t> mat(nt);
+  for (size_t i = 0; i < nv; ++i)
+    for (int c = 0; c < 3; ++c) {
+      pos.mutable_at(i, c) = g.mesh.pos[i][c];
+      nrm.mutable_at(i, c) = g.mesh.nrm.empty() ? 0.f : g.mesh.nrm[i][c];
+    }
+  for (size_t t = 0; t < nt; ++t) {
+    for (int c = 0; c < 3; ++c) tri.mutable_at(t, c) = g.mesh.tri[t][c];
+    mat.mutable_at(t) = g.triMaterial[t];
+  }
+  py::dict d;
+  d["size"] = std::pair<double, double>(g.Lx, g.Ly);
+  d["positions"] = pos;
+  d["normals"] = nrm;
+  d["triangles"] = tri;
+  d["materials"] = mat;
+  d["z_range"] = std::pair<float, float>(g.zmin, g.zmax);
+  std::vector<std::string> names;
+  for (const auto& md : scene.materials) names.push_back(md.name);
+  d["material_names"] = names;
+  d["scene_json"] = sceneToJson(scene);
+  return d;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
@@ -401,6 +440,9 @@ PYBIND11_MODULE(_core, m) {
         return a;
       },
       py::arg("path"), "An EXR, PNG or JPEG as H x W x 3 float32, top row first (linear for EXR).");
+  m.def("tile_geometry", &tileGeometry, py::arg("scene"),
+        "The scene's tile as the simulator builds it: positions, shading normals, triangles, "
+        "material index per triangle, the tile's size and the canonical scene JSON.");
   m.def("commands", &commandDecls, "Every command's declaration (options, types, ranges, docs).");
   (void)deg;
 }

@@ -143,8 +143,72 @@ def test_bad_properties_are_refused_with_the_reason(square, tmp_path):
         mi.load_dict({"type": "btf", "filename": str(square), "tiling": "0,1"})
     with pytest.raises(Exception, match="level 7"):
         mi.load_dict({"type": "btf", "filename": str(square), "level": 7})
+    with pytest.raises(Exception, match="sampling must be"):
+        mi.load_dict({"type": "btf", "filename": str(square), "sampling": "uniform"})
+    with pytest.raises(Exception, match="grid must be within"):
+        mi.load_dict({"type": "btf", "filename": str(square), "grid": 1})
+    with pytest.raises(Exception, match="cosine_fraction"):
+        mi.load_dict({"type": "btf", "filename": str(square), "cosine_fraction": 0.0})
     with pytest.raises(Exception, match="BTF not found"):
         mi.load_dict({"type": "btf", "filename": str(tmp_path / "none.btf")})
+
+
+# --- importance sampling from the tile average -------------------------------------------------
+
+def wavefront(n, view_theta, rng):
+    si = dr.zeros(mi.SurfaceInteraction3f, n)
+    si.uv = mi.Point2f(rng.random(n), rng.random(n))
+    v = unit(view_theta, 57.0)
+    si.wi = mi.Vector3f(*[mi.Float(np.full(n, x)) for x in v])
+    si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+    return si
+
+
+@pytest.mark.parametrize("view_theta", [0.0, 50.0, 80.0])
+def test_importance_sampling_draws_what_its_pdf_says(square, view_theta, tmp_path, monkeypatch):
+    """Mitsuba's own chi-square test of sample() against pdf(); and the same test rejects the
+    importance sampler's directions judged by the cosine pdf (it can fail)."""
+    monkeypatch.chdir(tmp_path)  # a failing test writes chi2_data.py into the working folder
+    from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
+    use("llvm_ad_rgb")
+    wi = unit(view_theta, 40.0)
+    prop = f'<string name="filename" value="{square}"/>'
+    sample_is, pdf_is = BSDFAdapter("btf", prop, wi=wi)
+    chi2 = ChiSquareTest(domain=SphericalDomain(), sample_func=sample_is, pdf_func=pdf_is,
+                         sample_dim=3, ires=16)
+    assert chi2.run(), chi2.messages
+    _, pdf_cos = BSDFAdapter("btf", prop + '<string name="sampling" value="cosine"/>', wi=wi)
+    wrong = ChiSquareTest(domain=SphericalDomain(), sample_func=sample_is, pdf_func=pdf_cos,
+                          sample_dim=3, ires=16)
+    assert not wrong.run()
+
+
+def test_importance_sampling_is_unbiased_normalised_and_lowers_the_variance(square):
+    use("llvm_ad_rgb")
+    ctx = mi.BSDFContext()
+    n = 200_000
+    cos = mi.load_dict({"type": "btf", "filename": str(square), "sampling": "cosine"})
+    imp = mi.load_dict({"type": "btf", "filename": str(square)})
+    for theta in (0.0, 40.0, 70.0):
+        est = {}
+        for name, b in (("cosine", cos), ("importance", imp)):
+            rng = np.random.default_rng(7)
+            si = wavefront(n, theta, rng)
+            bs, w = b.sample(ctx, si, mi.Float(rng.random(n)), mi.Point2f(rng.random(n), rng.random(n)))
+            w = np.array(w)
+            assert np.all(np.isfinite(w)) and np.all(w >= 0)
+            # sample()'s pdf is pdf() at the direction drawn, and its weight eval / pdf.
+            p = np.array(b.pdf(ctx, si, bs.wo))
+            assert np.allclose(np.array(bs.pdf), p, rtol=1e-6)
+            f = np.array(b.eval(ctx, si, bs.wo))
+            assert np.allclose(w, f / np.maximum(p, 1e-30), rtol=1e-5, atol=1e-7)
+            # ∫ pdf dω = 1 (uniform hemisphere quadrature).
+            u = mi.warp.square_to_uniform_hemisphere(mi.Point2f(rng.random(n), rng.random(n)))
+            assert abs(np.mean(np.array(b.pdf(ctx, si, u))) * 2 * np.pi - 1) < 0.01
+            est[name] = (w.mean(axis=1), w.mean(axis=0).var())  # the luminance's variance
+        # The same albedo (both unbiased, 200 k samples each) at a lower variance.
+        assert np.allclose(est["importance"][0], est["cosine"][0], rtol=0.01), (theta, est)
+        assert est["importance"][1] < 0.8 * est["cosine"][1], (theta, est)
 
 
 # --- btfsim export --format rgl-bsdf, read by Mitsuba's own `measured` BSDF ------------------

@@ -147,3 +147,23 @@ def test_damaged_files_raise_never_crash(tmp_path):
             assert np.all(np.isfinite(img)) and np.all(img >= 0), p
             assert np.all(np.isfinite(avg)) and np.all(avg >= 0), p
     assert refused >= 10
+
+
+def test_tile_geometry_is_the_simulators_tile():
+    from conftest import scene
+    g = btfstudio.tile_geometry(scene("brick"))
+    tri, pos, mat = g["triangles"], g["positions"], g["materials"]
+    assert tri.shape[1] == 3 and len(tri) > 0 and tri.max() < len(pos)
+    assert set(g["material_names"]) == {"mortar", "brick"} and mat.max() < 2
+    assert np.all(np.isfinite(pos)) and np.allclose(np.linalg.norm(g["normals"], axis=1), 1, atol=1e-4)
+    lo, hi = g["z_range"]
+    assert abs(lo) < 1e-6 and abs(hi - 0.1) < 1e-6 and pos[:, 2].max() <= hi + 1e-6
+    # Ground (z = 0, area 1) plus eight bricks' tops: the area seen from above is the tile's.
+    a = pos[tri[:, 1]] - pos[tri[:, 0]]
+    b = pos[tri[:, 2]] - pos[tri[:, 0]]
+    up = np.cross(a, b)[:, 2] / 2
+    top = up[up > 0]
+    assert g["scene"]["materials"]["brick"]["type"] == "blinn_phong"
+    assert top.sum() > 1.0 - 1e-4  # the ground under the bricks is kept, so at least the tile
+    with pytest.raises(btfstudio.BtfError):
+        btfstudio.tile_geometry("/nonexistent/scene.json")
