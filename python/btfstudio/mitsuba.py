@@ -73,7 +73,7 @@ class TileAverageSampler:
     fraction, so the density over solid angle is p(u(ω)) cos θ / π — exact, and positive wherever
     cos θ > 0."""
 
-    def __init__(self, btf, level_hint: int, grid: int = 32, cosine_fraction: float = 0.25):
+    def __init__(self, btf, grid: int = 32, cosine_fraction: float = 0.25):
         if not 2 <= grid <= 256:
             raise btfstudio.BtfError(f"btf BSDF: grid must be within 2..256, got {grid}")
         if not 0.0 < cosine_fraction <= 1.0:
@@ -101,7 +101,6 @@ class TileAverageSampler:
         self.table = f / f.mean(axis=1, keepdims=True)  # mean 1: ∫ T du = 1 over the square
         cdf = np.cumsum(self.table, axis=1)
         self.cdf = cdf / cdf[:, -1:]
-        self.level_hint = level_hint
 
     def view_index(self, view: np.ndarray) -> np.ndarray:
         """The nearest set view (largest cosine) of each view."""
@@ -179,7 +178,7 @@ def bsdf_class():
             self.sampler = None
             if mode == "importance":
                 self.sampler = TileAverageSampler(
-                    self.btf, self.level, int(props["grid"]) if "grid" in props else 32,
+                    self.btf, int(props["grid"]) if "grid" in props else 32,
                     float(props["cosine_fraction"]) if "cosine_fraction" in props else 0.25)
 
         # The aBRDF at the shading points, light `light` and view `view` in the shading frame.
