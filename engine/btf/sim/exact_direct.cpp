@@ -1,0 +1,512 @@
+// Exact direct light by area: the hidden-surface removal per direction and the per-(view, light)
+// accumulation (exact_direct.h says what and why; docs/decisions/exact-visibility.md how).
+#include <btf/core/error.h>
+#include <btf/core/run_context.h>
+#include <btf/sim/exact_direct.h>
+#include <clipper.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace btf {
+
+namespace cl = ClipperLib;
+
+namespace {
+
+struct P2 {
+  double x, y;
+};
+
+// Sutherland–Hodgman: the part of convex polygon `in` where a·x + b·y + c ≥ 0.
+void clipHalf(const std::vector<P2>& in, double a, double b, double c, std::vector<P2>* out) {
+  out->clear();
+  const size_t n = in.size();
+  for (size_t i = 0; i < n; ++i) {
+    const P2& p = in[i];
+    const P2& q = in[(i + 1) % n];
+    const double fp = a * p.x + b * p.y + c, fq = a * q.x + b * q.y + c;
+    if (fp >= 0) out->push_back(p);
+    if ((fp >= 0) != (fq >= 0)) {
+      const double t = fp / (fp - fq);
+      out->push_back({p.x + t * (q.x - p.x), p.y + t * (q.y - p.y)});
+    }
+  }
+}
+
+double polyArea(const std::vector<P2>& p) {
+  double a = 0;
+  for (size_t i = 0, n = p.size(); i < n; ++i) {
+    const P2& u = p[i];
+    const P2& v = p[(i + 1) % n];
+    a += u.x * v.y - v.x * u.y;
+  }
+  return 0.5 * a;
+}
+
+double pathsArea(const cl::Paths& ps) {
+  double a = 0;
+  for (const cl::Path& p : ps) a += cl::Area(p);
+  return a;
+}
+
+// Runs the clipper and returns its rings oriented by what they are — outer rings counter-clockwise
+// (positive area), holes clockwise — from the polygon tree: the flat output's orientation is not
+// reliable (Clipper 6.4.2 returns some outer rings clockwise, measured on the leather tile).
+void execute(cl::Clipper& c, cl::ClipType type, cl::Paths* out) {
+  cl::PolyTree tree;
+  c.Execute(type, tree, cl::pftNonZero, cl::pftNonZero);
+  out->clear();
+  for (cl::PolyNode* n = tree.GetFirst(); n; n = n->GetNext()) {
+    if (n->Contour.size() < 3) continue;
+    out->push_back(n->Contour);
+    if ((cl::Area(out->back()) < 0) != n->IsHole()) std::reverse(out->back().begin(), out->back().end());
+  }
+}
+
+constexpr uint8_t kHidden = 0, kWhole = 1, kPartial = 2;
+constexpr double kIntRange = double(1 << 29);  // local coordinates × scale stay within ±2^29
+
+}  // namespace
+
+struct ExactDirect::Face {
+  DVec3 a0{0}, u{0}, v{0}, n{0};  // first vertex; orthonormal basis of the plane; unit normal
+  double scale = 1;               // local units → Clipper integers
+  double area = 0, diameter = 0;
+  P2 loc[3];     // the triangle in local coordinates (counter-clockwise)
+  cl::Path tri;  // the same in integers
+  Vec3 ns{0};    // the constant shading normal (flat faces)
+  uint16_t material = 0;
+  bool valid = false, flat = false;
+};
+
+struct ExactDirect::DirRegions {
+  std::vector<uint8_t> state;         // per face: kHidden, kWhole, kPartial
+  std::vector<uint32_t> partialFace;  // ascending
+  std::vector<uint32_t> ringBegin;    // per partial face, + 1
+  std::vector<uint32_t> ptBegin;      // per ring, + 1
+  std::vector<cl::IntPoint> pts;
+  std::vector<uint32_t> seen;  // faces not hidden, ascending
+
+  void addPartial(uint32_t f, const cl::Paths& ps) {
+    if (ringBegin.empty()) ringBegin.push_back(0), ptBegin.push_back(0);
+    partialFace.push_back(f);
+    for (const cl::Path& p : ps) {
+      pts.insert(pts.end(), p.begin(), p.end());
+      ptBegin.push_back(uint32_t(pts.size()));
+    }
+    ringBegin.push_back(uint32_t(ptBegin.size() - 1));
+  }
+  void paths(uint32_t f, cl::Paths* out) const {
+    out->clear();
+    const auto it = std::lower_bound(partialFace.begin(), partialFace.end(), f);
+    BTF_CHECK(it != partialFace.end() && *it == f);
+    const size_t k = size_t(it - partialFace.begin());
+    for (uint32_t r = ringBegin[k]; r < ringBegin[k + 1]; ++r)
+      out->emplace_back(pts.begin() + ptBegin[r], pts.begin() + ptBegin[r + 1]);
+  }
+  uint64_t bytes() const {
+    return state.size() + 4 * (partialFace.size() + ringBegin.size() + ptBegin.size() +
+                               seen.size()) +
+           sizeof(cl::IntPoint) * pts.size();
+  }
+};
+
+// A face seen from the view being evaluated: its map from local integers to the view's texel
+// cells, and what its shading needs.
+struct ExactDirect::ViewFace {
+  uint32_t face;
+  double cx[3], cy[3];  // cell x = cx0 + cx1·X + cx2·Y (X, Y the local integers); same for y
+  double orient;        // ±1: the map's orientation (a face seen from its back flips)
+  Vec3 ng, ns, wv;      // normals turned toward the viewer; the view
+  Frame frame;
+  Vec3 wo;
+  const Material* mat;
+  bool lambert;
+};
+
+ExactDirect::ExactDirect(const TileGeometry& geom, const std::vector<Material>& materials,
+                         const DirectionSet& dirs, int nu, int nv)
+    : m_geom(geom), m_materials(materials), m_dirs(dirs), m_nu(nu), m_nv(nv) {
+  BTF_CHECK(nu >= 1 && nv >= 1);
+  const TriMesh& m = geom.mesh;
+  m_faces.resize(m.tri.size());
+  for (size_t t = 0; t < m.tri.size(); ++t) {
+    Face& F = m_faces[t];
+    const glm::uvec3& ix = m.tri[t];
+    const DVec3 p0(m.pos[ix.x]), p1(m.pos[ix.y]), p2(m.pos[ix.z]);
+    const DVec3 e1 = p1 - p0, e2 = p2 - p0;
+    const DVec3 nn = glm::cross(e1, e2);
+    const double len = glm::length(nn), l1 = glm::length(e1);
+    F.diameter = std::max({l1, glm::length(e2), glm::length(p2 - p1)});
+    F.material = t < geom.triMaterial.size() ? geom.triMaterial[t] : 0;
+    // Zero-area (and numerically zero) triangles see and shade nothing, as in the tracer.
+    F.valid = F.diameter > 0 && len > 1e-12 * F.diameter * F.diameter && l1 > 0 &&
+              std::isfinite(len);
+    if (!F.valid) continue;
+    ++m_stats.faces;
+    F.area = 0.5 * len;
+    F.a0 = p0;
+    F.n = nn / len;
+    F.u = e1 / l1;
+    F.v = glm::cross(F.n, F.u);
+    F.loc[0] = {0, 0};
+    F.loc[1] = {l1, 0};
+    F.loc[2] = {glm::dot(e2, F.u), glm::dot(e2, F.v)};
+    F.scale = kIntRange / F.diameter;
+    for (const P2& p : F.loc)
+      F.tri.push_back({cl::cInt(std::llround(p.x * F.scale)), cl::cInt(std::llround(p.y * F.scale))});
+    // Flat: the three vertex normals agree, so the interpolated normal is one vector.
+    const Vec3 na = m.nrm.empty() ? Vec3(0) : m.nrm[ix.x];
+    const Vec3 nb = m.nrm.empty() ? Vec3(0) : m.nrm[ix.y];
+    const Vec3 nc = m.nrm.empty() ? Vec3(0) : m.nrm[ix.z];
+    auto same = [](const Vec3& a, const Vec3& b) {
+      return std::abs(a.x - b.x) <= 1e-6f && std::abs(a.y - b.y) <= 1e-6f &&
+             std::abs(a.z - b.z) <= 1e-6f;
+    };
+    F.flat = m.nrm.empty() || (same(na, nb) && same(na, nc));
+    if (F.flat) {
+      F.ns = geom.shadingNormal(uint32_t(t), 1.0f / 3, 1.0f / 3);
+      ++m_stats.flatFaces;
+    }
+  }
+}
+
+ExactDirect::~ExactDirect() = default;
+
+bool ExactDirect::shades(uint32_t prim) const {
+  return prim < m_faces.size() && m_faces[prim].valid && m_faces[prim].flat;
+}
+
+void ExactDirect::prepare(ProgressReporter* progress, const CancelToken* cancel) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int nD = m_dirs.size();
+  m_regions.assign(size_t(nD), DirRegions{});
+  std::vector<int64_t> tests(size_t(nD), 0);
+  parallelForChunks(
+      nD, 1,
+      [&](int64_t b, int64_t e) {
+        for (int64_t d = b; d < e; ++d) {
+          hsr(int(d), &m_regions[size_t(d)], &tests[size_t(d)]);
+          if (progress) progress->add(1);
+        }
+      },
+      cancel);
+  throwIfCancelled(cancel, "exact visibility");
+  m_stats.partialRegions = 0;
+  m_stats.occluderTests = 0;
+  m_stats.regionBytes = 0;
+  for (int d = 0; d < nD; ++d) {
+    m_stats.partialRegions += int64_t(m_regions[size_t(d)].partialFace.size());
+    m_stats.occluderTests += tests[size_t(d)];
+    m_stats.regionBytes += m_regions[size_t(d)].bytes();
+  }
+  m_stats.hsrSeconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  m_prepared = true;
+}
+
+// The part of every face first seen from direction `dir` (a point at infinity along ω): face A
+// loses, in its own plane, the parts where another triangle — or a periodic copy of any, its own
+// included — lies in front of it along ω. Each such part is convex: A ∩ B's projection onto A's
+// plane ∩ {B in front}; their union is removed by one Clipper difference.
+void ExactDirect::hsr(int dir, DirRegions* out, int64_t* tests) const {
+  const DVec3 w = m_dirs[dir].w;
+  const double Lx = m_geom.Lx, Ly = m_geom.Ly;
+  const size_t nF = m_faces.size();
+  out->state.assign(nF, kHidden);
+  const double sx = w.x / std::max(w.z, 1e-9), sy = w.y / std::max(w.z, 1e-9);
+  // Projected bounding boxes on the reference plane along ω.
+  struct Box {
+    double x0, x1, y0, y1;
+  };
+  std::vector<Box> box(nF);
+  std::vector<uint32_t> valid;
+  for (uint32_t f = 0; f < nF; ++f) {
+    if (!m_faces[f].valid) continue;
+    valid.push_back(f);
+    const glm::uvec3& ix = m_geom.mesh.tri[f];
+    Box b{1e300, -1e300, 1e300, -1e300};
+    for (uint32_t k : {ix.x, ix.y, ix.z}) {
+      const DVec3 p(m_geom.mesh.pos[k]);
+      const double qx = p.x - p.z * sx, qy = p.y - p.z * sy;
+      b.x0 = std::min(b.x0, qx), b.x1 = std::max(b.x1, qx);
+      b.y0 = std::min(b.y0, qy), b.y1 = std::max(b.y1, qy);
+    }
+    box[f] = b;
+  }
+  // A grid over one period holding every face whose box (wrapped) meets the cell.
+  const int G = std::clamp(int(std::sqrt(double(valid.size())) / 2), 1, 64);
+  const double cw = Lx / G, ch = Ly / G;
+  auto cellRange = [&](double a0, double a1, double period, double size, int* c0, int* c1) {
+    if (a1 - a0 >= period) {
+      *c0 = 0, *c1 = G - 1;
+      return;
+    }
+    *c0 = int(std::floor(a0 / size)), *c1 = int(std::floor(a1 / size));
+  };
+  auto wrapG = [&](int c) { return ((c % G) + G) % G; };
+  std::vector<std::vector<uint32_t>> grid(size_t(G) * G);
+  for (uint32_t f : valid) {
+    int i0, i1, j0, j1;
+    cellRange(box[f].x0, box[f].x1, Lx, cw, &i0, &i1);
+    cellRange(box[f].y0, box[f].y1, Ly, ch, &j0, &j1);
+    for (int j = j0; j <= j1 && j - j0 < G; ++j)
+      for (int i = i0; i <= i1 && i - i0 < G; ++i)
+        grid[size_t(wrapG(j)) * G + size_t(wrapG(i))].push_back(f);
+  }
+  std::vector<uint32_t> stamp(nF, UINT32_MAX);
+  std::vector<uint32_t> cand;
+  std::vector<P2> poly, tmp;
+  cl::Paths occ, sol;
+  const double tolW = 1e-9 * std::max(Lx, Ly);
+  int64_t nTests = 0;
+  for (uint32_t a : valid) {
+    const Face& A = m_faces[a];
+    const double nd = glm::dot(A.n, w);
+    if (std::abs(nd) < 1e-6) continue;  // edge-on: no projected area
+    const Box& ba = box[a];
+    cand.clear();
+    int i0, i1, j0, j1;
+    cellRange(ba.x0, ba.x1, Lx, cw, &i0, &i1);
+    cellRange(ba.y0, ba.y1, Ly, ch, &j0, &j1);
+    for (int j = j0; j <= j1 && j - j0 < G; ++j)
+      for (int i = i0; i <= i1 && i - i0 < G; ++i)
+        for (uint32_t b : grid[size_t(wrapG(j)) * G + size_t(wrapG(i))])
+          if (stamp[b] != a) stamp[b] = a, cand.push_back(b);
+    std::sort(cand.begin(), cand.end());  // the same order whatever the grid: same bytes
+    occ.clear();
+    const double eps = 1e-12 * (Lx + Ly);
+    for (uint32_t b : cand) {
+      const Box& bb = box[b];
+      const int k0 = int(std::floor((ba.x0 - bb.x1) / Lx)), k1 = int(std::ceil((ba.x1 - bb.x0) / Lx));
+      const int m0 = int(std::floor((ba.y0 - bb.y1) / Ly)), m1 = int(std::ceil((ba.y1 - bb.y0) / Ly));
+      const glm::uvec3& ix = m_geom.mesh.tri[b];
+      for (int mm = m0; mm <= m1; ++mm)
+        for (int kk = k0; kk <= k1; ++kk) {
+          if (b == a && kk == 0 && mm == 0) continue;
+          const double ox = kk * Lx, oy = mm * Ly;
+          if (!(bb.x0 + ox < ba.x1 - eps && bb.x1 + ox > ba.x0 + eps)) continue;
+          if (!(bb.y0 + oy < ba.y1 - eps && bb.y1 + oy > ba.y0 + eps)) continue;
+          // B's copy projected along ω onto A's plane, in A's local frame; τ: how far in front.
+          P2 q[3];
+          double tau[3];
+          double tmax = -1e300, tmin = 1e300;
+          int k = 0;
+          for (uint32_t vi : {ix.x, ix.y, ix.z}) {
+            const DVec3 p = DVec3(m_geom.mesh.pos[vi]) + DVec3(ox, oy, 0);
+            const double t = glm::dot(A.n, p - A.a0) / nd;
+            const DVec3 r = p - t * w - A.a0;
+            q[k] = {glm::dot(r, A.u), glm::dot(r, A.v)};
+            tau[k] = t;
+            tmax = std::max(tmax, t), tmin = std::min(tmin, t);
+            ++k;
+          }
+          const bool coplanar = tmax <= tolW && tmin >= -tolW;
+          // Behind A's plane (or on it, where the lower index wins the tie): no occlusion.
+          if (coplanar ? b > a : tmax <= tolW) continue;
+          const double det = (q[1].x - q[0].x) * (q[2].y - q[0].y) -
+                             (q[2].x - q[0].x) * (q[1].y - q[0].y);
+          if (!(std::abs(det) > 1e-14 * A.diameter * A.diameter)) continue;  // B edge-on to ω
+          ++nTests;
+          poly.assign(A.loc, A.loc + 3);
+          const double s = det > 0 ? 1.0 : -1.0;
+          for (int e = 0; e < 3 && poly.size() >= 3; ++e) {
+            const P2& u = q[e];
+            const P2& v = q[(e + 1) % 3];
+            // Inside B': left of each edge of the counter-clockwise triangle.
+            const double ea = -(v.y - u.y) * s, eb = (v.x - u.x) * s;
+            clipHalf(poly, ea, eb, -(ea * u.x + eb * u.y), &tmp);
+            poly.swap(tmp);
+          }
+          if (!coplanar && tmin < tolW && poly.size() >= 3) {
+            // τ is affine over B': keep where τ > 0 (B in front).
+            const double d1 = tau[1] - tau[0], d2 = tau[2] - tau[0];
+            const double ga = (d1 * (q[2].y - q[0].y) - d2 * (q[1].y - q[0].y)) / det;
+            const double gb = ((q[1].x - q[0].x) * d2 - (q[2].x - q[0].x) * d1) / det;
+            const double gc = tau[0] - ga * q[0].x - gb * q[0].y;
+            clipHalf(poly, ga, gb, gc, &tmp);
+            poly.swap(tmp);
+          }
+          if (poly.size() < 3 || !(std::abs(polyArea(poly)) > 1e-14 * A.diameter * A.diameter))
+            continue;
+          cl::Path ip;
+          ip.reserve(poly.size());
+          const double lim = 2 * kIntRange;
+          for (const P2& p : poly)
+            ip.push_back({cl::cInt(std::llround(std::clamp(p.x * A.scale, -lim, lim))),
+                          cl::cInt(std::llround(std::clamp(p.y * A.scale, -lim, lim)))});
+          if (polyArea(poly) < 0) std::reverse(ip.begin(), ip.end());
+          occ.push_back(std::move(ip));
+        }
+    }
+    if (occ.empty()) {
+      out->state[a] = kWhole;
+      continue;
+    }
+    cl::Clipper c;
+    c.AddPath(A.tri, cl::ptSubject, true);
+    c.AddPaths(occ, cl::ptClip, true);
+    execute(c, cl::ctDifference, &sol);
+    const double full = cl::Area(A.tri), left = pathsArea(sol);
+    if (!(left > 1e-9 * full)) continue;  // hidden
+    if (left >= full * (1 - 1e-12)) {
+      out->state[a] = kWhole;
+      continue;
+    }
+    out->state[a] = kPartial;
+    out->addPartial(a, sol);
+  }
+  for (uint32_t f = 0; f < nF; ++f)
+    if (out->state[f] != kHidden) out->seen.push_back(f);
+  *tests = nTests;
+}
+
+double ExactDirect::visibleFraction(int dir, uint32_t prim) const {
+  BTF_CHECK(m_prepared && dir >= 0 && dir < m_dirs.size() && prim < m_faces.size());
+  const DirRegions& R = m_regions[size_t(dir)];
+  if (R.state[prim] == kHidden) return 0;
+  if (R.state[prim] == kWhole) return 1;
+  cl::Paths ps;
+  R.paths(prim, &ps);
+  return pathsArea(ps) / cl::Area(m_faces[prim].tri);
+}
+
+void ExactDirect::prepareView(int view, std::vector<ViewFace>* faces, int* width) const {
+  faces->clear();
+  const DVec3 w = m_dirs[view].w;
+  const double sx = w.x / std::max(w.z, 1e-9), sy = w.y / std::max(w.z, 1e-9);
+  const double kx = m_nu / m_geom.Lx, ky = m_nv / m_geom.Ly;
+  double maxWidth = 0;
+  for (uint32_t f : m_regions[size_t(view)].seen) {
+    const Face& F = m_faces[f];
+    if (!F.flat) continue;
+    ViewFace V;
+    V.face = f;
+    const double is = 1.0 / F.scale;
+    // Cell coordinates of the local point (X, Y)/scale: a0 + X u + Y v projected along ω.
+    V.cx[0] = kx * (F.a0.x - F.a0.z * sx);
+    V.cx[1] = kx * (F.u.x - F.u.z * sx) * is;
+    V.cx[2] = kx * (F.v.x - F.v.z * sx) * is;
+    V.cy[0] = ky * (F.a0.y - F.a0.z * sy);
+    V.cy[1] = ky * (F.u.y - F.u.z * sy) * is;
+    V.cy[2] = ky * (F.v.y - F.v.z * sy) * is;
+    const double det = V.cx[1] * V.cy[2] - V.cx[2] * V.cy[1];
+    V.orient = det >= 0 ? 1.0 : -1.0;
+    double x0 = 1e300, x1 = -1e300;
+    for (const cl::IntPoint& p : F.tri) {
+      const double x = V.cx[0] + V.cx[1] * double(p.X) + V.cx[2] * double(p.Y);
+      x0 = std::min(x0, x), x1 = std::max(x1, x);
+    }
+    V.cx[0] -= std::floor(x0 / m_nu) * m_nu;  // whole periods: the face starts in [0, nu)
+    maxWidth = std::max(maxWidth, x1 - x0);
+    V.wv = Vec3(w);
+    const bool back = glm::dot(F.n, w) < 0;
+    V.ng = back ? -Vec3(F.n) : Vec3(F.n);
+    V.ns = back ? -F.ns : F.ns;
+    V.mat = &m_materials[F.material];
+    V.lambert = V.mat->type == BrdfType::Lambert;
+    V.frame = Frame::fromNormal(V.ns);
+    V.wo = V.frame.toLocal(V.wv);
+    faces->push_back(V);
+  }
+  *width = m_nu + int(std::ceil(maxWidth)) + 3;
+}
+
+void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& faces, int width, int row0,
+                              int row1, AreaRaster* raster) const {
+  raster->reset(m_nu, m_nv, row0, row1, width);
+  const Vec3 wl(m_dirs[light].w);
+  const float invCos = float(1.0 / std::max(m_dirs[light].w.z, 1e-7));
+  const DirRegions& RL = m_regions[size_t(light)];
+  const DirRegions* RV = &m_regions[size_t(view)];
+  cl::Paths pv, pl, sol;
+  for (const ViewFace& V : faces) {
+    const uint8_t sl = RL.state[V.face];
+    if (sl == kHidden) continue;
+    const float cosN = glm::dot(V.ns, wl), cn = glm::dot(V.ng, wl);
+    if (cosN <= 0 || cn <= 0) continue;  // the light is on the other side
+    if (!V.lambert && V.wo.z <= 0) continue;
+    const Rgb f = V.lambert ? V.mat->kdOverPi : evalBrdf(*V.mat, V.frame.toLocal(wl), V.wo);
+    const Rgb val = f * (cosN * invCos);
+    if (!(val.x > 0 || val.y > 0 || val.z > 0)) continue;
+    const double wgt[3] = {double(val.x) * V.orient, double(val.y) * V.orient,
+                           double(val.z) * V.orient};
+    const Face& F = m_faces[V.face];
+    const uint8_t sv = RV->state[V.face];
+    if (sv == kWhole && sl == kWhole) {
+      sol.assign(1, F.tri);
+    } else if (sv == kWhole) {
+      RL.paths(V.face, &sol);
+    } else if (sl == kWhole) {
+      RV->paths(V.face, &sol);
+    } else {
+      RV->paths(V.face, &pv);
+      RL.paths(V.face, &pl);
+      cl::Clipper c;
+      c.AddPaths(pv, cl::ptSubject, true);
+      c.AddPaths(pl, cl::ptClip, true);
+      execute(c, cl::ctIntersection, &sol);
+    }
+    for (const cl::Path& ring : sol) {
+      const size_t n = ring.size();
+      if (n < 3) continue;
+      auto px = [&](const cl::IntPoint& p) {
+        return V.cx[0] + V.cx[1] * double(p.X) + V.cx[2] * double(p.Y);
+      };
+      auto py = [&](const cl::IntPoint& p) {
+        return V.cy[0] + V.cy[1] * double(p.X) + V.cy[2] * double(p.Y);
+      };
+      double x0 = px(ring[n - 1]), y0 = py(ring[n - 1]);
+      for (size_t i = 0; i < n; ++i) {
+        const double x1 = px(ring[i]), y1 = py(ring[i]);
+        raster->addEdge(x0, y0, x1, y1, wgt);
+        x0 = x1, y0 = y1;
+      }
+    }
+  }
+  raster->resolve();
+}
+
+void ExactDirect::evalView(int view, int64_t t0, int64_t t1, float* out,
+                           size_t texelStride) const {
+  BTF_CHECK(m_prepared && view >= 0 && view < m_dirs.size());
+  BTF_CHECK(t0 >= 0 && t1 <= int64_t(m_nu) * m_nv && t0 < t1);
+  const int row0 = int(t0 / m_nu), row1 = int((t1 - 1) / m_nu) + 1;
+  thread_local std::vector<ViewFace> faces;
+  thread_local AreaRaster raster;
+  int width = 0;
+  prepareView(view, &faces, &width);
+  for (int l = 0, nL = m_dirs.size(); l < nL; ++l) {
+    rasterLight(view, l, faces, width, row0, row1, &raster);
+    for (int64_t t = t0; t < t1; ++t) {
+      const int i = int(t % m_nu), j = int(t / m_nu);
+      float* o = out + size_t(t - t0) * texelStride + 3 * size_t(l);
+      for (int c = 0; c < 3; ++c) {
+        const double v = raster.value(i, j, c);
+        // Rounding leaves −1e-17 where a texel sees nothing; NaN never reaches a file.
+        o[c] = std::isfinite(v) && v > 0 ? float(v) : 0.0f;
+      }
+    }
+  }
+}
+
+void ExactDirect::evalPair(int view, int light, float* image) const {
+  BTF_CHECK(m_prepared && view >= 0 && view < m_dirs.size() && light >= 0 &&
+            light < m_dirs.size());
+  std::vector<ViewFace> faces;
+  AreaRaster raster;
+  int width = 0;
+  prepareView(view, &faces, &width);
+  rasterLight(view, light, faces, width, 0, m_nv, &raster);
+  for (int j = 0; j < m_nv; ++j)
+    for (int i = 0; i < m_nu; ++i)
+      for (int c = 0; c < 3; ++c) {
+        const double v = raster.value(i, j, c);
+        image[3 * (size_t(j) * m_nu + size_t(i)) + size_t(c)] =
+            std::isfinite(v) && v > 0 ? float(v) : 0.0f;
+      }
+}
+
+}  // namespace btf

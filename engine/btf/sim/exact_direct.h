@@ -1,0 +1,80 @@
+// Exact direct light by area (thesis §2.6, §4.2.3): under a parallel camera and a directional
+// light a flat face of constant shading normal shades uniformly, so a texel's direct aBRDF is
+// Σ_faces area(footprint ∩ visible(face, view) ∩ lit(face, light)) / area(footprint) × the
+// face's f_r · (n·ωi) / cos θi — no samples. Per direction of the set, once: the part of every
+// face that is first seen from that direction (hidden-surface removal of the periodic tile's
+// triangles, their copies included, in each face's own plane; polygons by Clipper, in
+// integers). That part is what a view sees and what a light lights. Per (view, light): each
+// face's seen part ∩ its lit part, projected along the view onto the reference plane, and its
+// area spread over the texels by an exact area rasteriser (sim/area_raster.h).
+// Faces with interpolated (smooth) normals are occluders here but shaded by the sampled kernel.
+#pragma once
+#include <btf/core/parallel.h>
+#include <btf/core/progress.h>
+#include <btf/directions/direction_set.h>
+#include <btf/geometry/mesh.h>
+#include <btf/scene/material.h>
+#include <btf/sim/area_raster.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace btf {
+
+struct ExactStats {
+  double hsrSeconds = 0;      // the hidden-surface removal of every direction
+  int64_t faces = 0;          // triangles of non-zero area
+  int64_t flatFaces = 0;      // of which shaded here (constant normal)
+  int64_t partialRegions = 0;  // (direction, face) parts neither empty nor whole
+  int64_t occluderTests = 0;   // (direction, face, occluder copy) overlaps clipped
+  uint64_t regionBytes = 0;
+};
+
+class ExactDirect {
+ public:
+  /// The tile seen on an nu × nv texel grid from every direction of `dirs` (views and lights
+  /// alike). The geometry, materials and directions must outlive this object.
+  ExactDirect(const TileGeometry& geom, const std::vector<Material>& materials,
+              const DirectionSet& dirs, int nu, int nv);
+  ~ExactDirect();
+  ExactDirect(const ExactDirect&) = delete;
+  ExactDirect& operator=(const ExactDirect&) = delete;
+
+  /// Hidden-surface removal for every direction (parallel; progress counts directions).
+  void prepare(ProgressReporter* progress = nullptr, const CancelToken* cancel = nullptr);
+
+  /// Whether triangle `prim` is shaded here (non-zero area and one shading normal).
+  bool shades(uint32_t prim) const;
+  /// Every triangle of non-zero area is flat: the whole direct light is exact.
+  bool allFlat() const { return m_stats.flatFaces == m_stats.faces; }
+  const ExactStats& stats() const { return m_stats; }
+
+  /// The flat faces' direct aBRDF of texels [t0, t1) (row-major over nu) seen from `view`, every
+  /// light: texel t's light l, channel c at out[(t − t0)·texelStride + 3·l + c] (overwritten).
+  void evalView(int view, int64_t t0, int64_t t1, float* out, size_t texelStride) const;
+  /// One (view, light) pair over the whole grid: image[3·(j·nu + i) + c].
+  void evalPair(int view, int light, float* image) const;
+
+  /// Area fraction of triangle `prim` that direction `dir` sees first (for tests): 0 … 1.
+  double visibleFraction(int dir, uint32_t prim) const;
+
+ private:
+  struct Face;
+  struct DirRegions;
+  struct ViewFace;
+  void hsr(int dir, DirRegions* out, int64_t* tests) const;
+  void prepareView(int view, std::vector<ViewFace>* faces, int* width) const;
+  void rasterLight(int view, int light, const std::vector<ViewFace>& faces, int width, int row0, int row1,
+                   AreaRaster* raster) const;
+
+  const TileGeometry& m_geom;
+  const std::vector<Material>& m_materials;
+  const DirectionSet& m_dirs;
+  int m_nu, m_nv;
+  std::vector<Face> m_faces;
+  std::vector<DirRegions> m_regions;  // per direction
+  ExactStats m_stats;
+  bool m_prepared = false;
+};
+
+}  // namespace btf
