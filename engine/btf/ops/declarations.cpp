@@ -94,6 +94,9 @@ Opts effectOptions() {
   return {
       en("method", "network", {"network", "pt"},
          "network (direct + point-network GI) or pt (path traced) (scene)"),
+      en("visibility", "auto", {"auto", "exact", "sampled"},
+         "direct light: exact (flat faces by area, no samples; smooth faces sampled uniformly), "
+         "sampled, or auto (exact on a faceted scene when adaptive sampling is asked for)"),
       en("self_shadowing", "auto", {"auto", "on", "off"}, "self-shadowing: planner or forced"),
       en("interreflection", "auto", {"auto", "on", "off"}, "inter-reflection: planner or forced"),
       in("bounces", 0, 0, 64, "P: reflections per path (1 = direct only; 0 = from the plan)"),

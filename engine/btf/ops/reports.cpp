@@ -44,6 +44,7 @@ Json json(const SimulateResult& r) {
   j["direction_count"] = r.directionCount;
   j["spp"] = r.spp;
   j["sampling"] = r.sampling;
+  j["visibility"] = r.visibility;
   j["shadows"] = r.shadows;
   j["method"] = r.method;
   j["plan"] = r.plan;

@@ -56,6 +56,7 @@ struct SimulateResult {
   std::string directions;
   int directionCount = 0, spp = 0;
   std::string sampling, shadows, method;
+  std::string visibility = "sampled";  // "exact", "exact+sampled" or "sampled"
   Json plan = Json::object();  // EffectPlan::toJson
   int threads = 1;
   double estimatedSeconds = 0;

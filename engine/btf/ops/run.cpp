@@ -118,6 +118,7 @@ SimOptions simOptions(const Scene& scene, const Request& r) {
     }
     o.plan.epsilon = r.f("epsilon");
     o.grazingRays = r.f("grazing_rays");
+    if (r.has("visibility")) o.visibility = r.s("visibility");
     o.grazingRaysForced = r.given("grazing_rays");
     const int voxels = r.i("network_voxels");
     if (voxels == 1) throw Error("--network-voxels: must be 0 (one per texel) or in 2..1024");

@@ -37,9 +37,13 @@ std::string planText(const EffectPlan& p) {
   return s;
 }
 
-// "adaptive 2x2..8x8" or "uniform 4x4".
+// "adaptive 2x2..8x8", "uniform 4x4", "exact by area" (every face flat) or "exact by area +
+// uniform 4x4" (smooth faces sampled on the hit maps).
 std::string samplingName(const SimulationJob& job) {
   const SimOptions& o = job.options();
+  if (const ExactDirect* ex = job.exactDirect())
+    return ex->allFlat() ? std::string("exact by area")
+                         : format("exact by area + uniform %dx%d", job.mapSpp(), job.mapSpp());
   return job.adaptive()
              ? format("adaptive 2x2..%dx%d", o.adaptiveSettings.maxK, o.adaptiveSettings.maxK)
              : format("uniform %dx%d", o.spp, o.spp);
@@ -219,6 +223,7 @@ void simulate(const Call& c) {
   res.directionCount = job.directions().size();
   res.spp = o.spp;
   res.sampling = samplingName(job);
+  res.visibility = job.visibilityName();
   res.shadows = shadowModeName(o.shadows);
   res.method = o.method;
   res.plan = planJson(job.plan());

@@ -191,7 +191,7 @@ int64_t DirectIllumination::evalTexelsView(const int* ti, const int* tj, int cou
     for (int s = 0; s < K2; ++s) {
       const int64_t si = g.sampleIndex(ti[t], tj[t], s);
       const uint32_t prim = m_maps.prim(view, si);
-      if (prim == kNoHit) continue;
+      if (prim == kNoHit || (!m_skip.empty() && m_skip[prim])) continue;
       KernelSample S;
       const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
       S.p = Vec3(p0 + double(m_maps.depth(view, si)) * wv);
@@ -304,7 +304,7 @@ Rgb DirectIllumination::evalTexelViewLight(int i, int j, int view, const DVec3& 
   for (int s = 0; s < K2; ++s) {
     const int64_t si = g.sampleIndex(i, j, s);
     const uint32_t prim = m_maps.prim(view, si);
-    if (prim == kNoHit) continue;
+    if (prim == kNoHit || (!m_skip.empty() && m_skip[prim])) continue;
     const DVec3 p0 = g.position(int(si % g.su()), int(si / g.su()));
     const DVec3 p = p0 + double(m_maps.depth(view, si)) * wv;
     Vec3 ng, n;

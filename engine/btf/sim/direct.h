@@ -49,6 +49,9 @@ class DirectIllumination {
   /// light) for light l of the set, in the configured mode.
   float lightVisibility(int l, const Vec3& p, const Vec3& ng, uint32_t prim) const;
   const DirectSettings& settings() const { return m_settings; }
+  /// Triangles whose samples the kernels leave out (mask[prim] ≠ 0): the faces that exact
+  /// visibility shades by area (sim/exact_direct.h). Empty: none.
+  void skipTriangles(std::vector<uint8_t> mask) { m_skip = std::move(mask); }
 
   /// A shaded point of the surface: the hit of a camera ray, ready to be lit by any light.
   struct Surface {
@@ -114,6 +117,7 @@ class DirectIllumination {
   const HitMaps& m_maps;
   DirectSettings m_settings;
   std::vector<LightInfo> m_lights;
+  std::vector<uint8_t> m_skip;
   float m_cell;  // sample spacing on the plane
   float m_toSampleX, m_toSampleY, m_invSu, m_invSv;
 };

@@ -119,6 +119,7 @@ struct ExactDirect::ViewFace {
   uint32_t face;
   double cx[3], cy[3];  // cell x = cx0 + cx1·X + cx2·Y (X, Y the local integers); same for y
   double orient;        // ±1: the map's orientation (a face seen from its back flips)
+  double y0, y1;        // the face's extent in cell rows (unwrapped)
   Vec3 ng, ns, wv;      // normals turned toward the viewer; the view
   Frame frame;
   Vec3 wo;
@@ -177,6 +178,12 @@ ExactDirect::~ExactDirect() = default;
 
 bool ExactDirect::shades(uint32_t prim) const {
   return prim < m_faces.size() && m_faces[prim].valid && m_faces[prim].flat;
+}
+
+std::vector<uint8_t> ExactDirect::shadedMask() const {
+  std::vector<uint8_t> m(m_faces.size(), 0);
+  for (size_t t = 0; t < m.size(); ++t) m[t] = shades(uint32_t(t)) ? 1 : 0;
+  return m;
 }
 
 void ExactDirect::prepare(ProgressReporter* progress, const CancelToken* cancel) {
@@ -400,6 +407,11 @@ void ExactDirect::prepareView(int view, std::vector<ViewFace>* faces, int* width
       x0 = std::min(x0, x), x1 = std::max(x1, x);
     }
     V.cx[0] -= std::floor(x0 / m_nu) * m_nu;  // whole periods: the face starts in [0, nu)
+    V.y0 = 1e300, V.y1 = -1e300;
+    for (const cl::IntPoint& p : F.tri) {
+      const double y = V.cy[0] + V.cy[1] * double(p.X) + V.cy[2] * double(p.Y);
+      V.y0 = std::min(V.y0, y), V.y1 = std::max(V.y1, y);
+    }
     maxWidth = std::max(maxWidth, x1 - x0);
     V.wv = Vec3(w);
     const bool back = glm::dot(F.n, w) < 0;
@@ -422,9 +434,18 @@ void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& 
   const DirRegions& RL = m_regions[size_t(light)];
   const DirRegions* RV = &m_regions[size_t(view)];
   cl::Paths pv, pl, sol;
+  const bool allRows = row0 == 0 && row1 == m_nv;
   for (const ViewFace& V : faces) {
     const uint8_t sl = RL.state[V.face];
     if (sl == kHidden) continue;
+    if (!allRows && V.y1 - V.y0 < m_nv) {
+      // Only faces over rows [row0, row1) (wrapped): a chunk of texels reads a band.
+      int r0 = int(std::floor(V.y0)) % m_nv;
+      if (r0 < 0) r0 += m_nv;
+      const int r1 = r0 + int(std::floor(V.y1) - std::floor(V.y0));  // inclusive, may pass nv
+      const bool meets = (r0 < row1 && r1 >= row0) || (r1 >= m_nv && r1 - m_nv >= row0);
+      if (!meets) continue;
+    }
     const float cosN = glm::dot(V.ns, wl), cn = glm::dot(V.ng, wl);
     if (cosN <= 0 || cn <= 0) continue;  // the light is on the other side
     if (!V.lambert && V.wo.z <= 0) continue;

@@ -45,6 +45,9 @@ class ExactDirect {
 
   /// Whether triangle `prim` is shaded here (non-zero area and one shading normal).
   bool shades(uint32_t prim) const;
+  /// shades() of every triangle: what the sampled kernel leaves out.
+  std::vector<uint8_t> shadedMask() const;
+  bool prepared() const { return m_prepared; }
   /// Every triangle of non-zero area is flat: the whole direct light is exact.
   bool allFlat() const { return m_stats.flatFaces == m_stats.faces; }
   const ExactStats& stats() const { return m_stats; }

@@ -99,6 +99,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     checkCancel();
     DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
                               {m, m_opt.shadowBias, grazingRays});
+    if (m_exact) direct.skipTriangles(m_exact->shadedMask());
     TexelKernel k{*m_tracer, m_materials, m_dirs, maps, direct, gather,
                   pathTrace, nullptr,     {},     1,    {}};
     std::unique_ptr<AdaptiveTexelSampler> ad;
@@ -152,6 +153,29 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     gr->secondsSaved = -cost;  // a cost: printed as such, kept out of the store's header
   }
   e.evalSeconds = units * double(nD) * perSampleView / threads;
+  if (m_exact) {
+    // Exact visibility: its hidden-surface removal and per-pair accumulation timed on up to six
+    // directions of the set (spread over it, the last included), at the run's texels.
+    std::vector<Direction> sub;
+    const int nCal = std::min(nD, 6);
+    for (int q = 0; q < nCal; ++q) sub.push_back(m_dirs[nCal == 1 ? 0 : q * (nD - 1) / (nCal - 1)]);
+    const DirectionSet cal = DirectionSet::subset("calibration", sub);
+    ExactDirect ex(m_geom, m_materials, cal, m_opt.nu, m_opt.nv);
+    const int64_t calTexels = std::min<int64_t>(texels, int64_t(e.chunkTexels));
+    std::vector<float> out(size_t(calTexels) * size_t(nCal) * 3);
+    double hsr = 0, pairs = 0;
+    withThreads(1, [&] {
+      auto t = Clock::now();
+      ex.prepare(nullptr, m_cancel);
+      hsr = since(t) / nCal;
+      t = Clock::now();
+      for (int v = 0; v < nCal; ++v) ex.evalView(v, 0, calTexels, out.data(), size_t(nCal) * 3);
+      pairs = since(t) / (double(nCal) * nCal) * double(texels) / double(calTexels);
+    });
+    checkCancel();
+    e.exactSeconds = (hsr * nD + pairs * double(nD) * nD) / threads;
+    e.evalSeconds += e.exactSeconds;
+  }
   // What each planner decision saves (or would cost).
   if (!pt && !pl.selfShadowing) {
     const double with = timeKernel(m_opt.shadows, nullptr, false, m_opt.grazingRays);

@@ -165,9 +165,18 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     writer->writeVmf(vmf);
   }
 
+  if (m_exact && !m_exact->prepared()) {
+    const auto t = Clock::now();
+    ProgressReporter pr("exact visibility", nD, m_opt.progress);
+    m_exact->prepare(&pr, cancel);
+    pr.finish();
+    r.exactSeconds = since(t);
+  }
+  r.visibility = visibilityName();
   const ShadowMode mode = pl.selfShadowing ? m_opt.shadows : ShadowMode::None;
   DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
                             {mode, m_opt.shadowBias, m_opt.grazingRays});
+  if (m_exact) direct.skipTriangles(m_exact->shadedMask());
   NetworkLighting lighting;
   lighting.setClosedFormTail(pl.closedFormTail);
   std::unique_ptr<NetworkGather> gather;
@@ -196,6 +205,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
                                                       m_onlyTrainingTexels ? nullptr : &adStats);
     kernel.adaptive = adaptive.get();
   }
+  kernel.exact = m_exact.get();
   kernel.ptPaths = m_opt.ptPaths;
   kernel.pt.maxBounces = pl.interreflection ? pl.bounces : 1;
   kernel.pt.seed = m_opt.seed;
@@ -274,6 +284,26 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   // Views [v0, v1) of texels [t0, t1) into `out` (texel t's view v at (t − t0)·texelStride +
   // (v − v0)·nD·3). Work items: (block of B texels, view); B > 1 only for the plain direct kernel.
   auto computeViews = [&](int64_t t0, int64_t t1, int v0, int v1, float* out, size_t texelStride) {
+    if (kernel.exact) {
+      // Exact visibility: one item per view, every texel of the chunk and every light.
+      const int64_t nv = v1 - v0, n = t1 - t0;
+      std::atomic<int64_t> viewsDone{0};
+      parallelForChunks(
+          nv, 1,
+          [&](int64_t b, int64_t e) {
+            uint64_t local = 0;
+            for (int64_t k = b; k < e; ++k) {
+              local += uint64_t(kernel.evalExactView(t0, t1, v0 + int(k), v0, out, texelStride));
+              const int64_t before = viewsDone.fetch_add(1);
+              pr.add((before + 1) * n / nv - before * n / nv);
+            }
+            evals += local;
+          },
+          cancel);
+      r.abrdfValues += uint64_t(n) * uint64_t(nv) * uint64_t(nD);
+      r.texelsComputed += double(n) * double(nv) / double(nD);
+      return;
+    }
     const int B = kernel.blockTexels();
     const int64_t blocks = (t1 - t0 + B - 1) / B, nv = v1 - v0;
     // The texel-by-texel kernels go view by view over the texels: neighbouring texels seen from

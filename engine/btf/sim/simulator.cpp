@@ -71,6 +71,26 @@ SimulationJob::SimulationJob(const Scene& scene, SimOptions options)
                               16u * (HitMaps::kBytesPerSample + HitMaps::kEdgeBytesPerSample);
     if (m_mapSpp == 4 && mapBytes > m_opt.memoryBudget / 2) m_mapSpp = 2;
   }
+  const std::string& vis = m_opt.visibility;
+  if (vis != "auto" && vis != "exact" && vis != "sampled")
+    throw Error("unknown --visibility '" + vis + "' (expected auto, exact or sampled)");
+  if (vis == "exact" && m_opt.method == "pt")
+    throw Error("--visibility exact is the network method's: --method pt path traces every value");
+  if (vis != "sampled" && m_opt.method != "pt") {
+    auto ex = std::make_unique<ExactDirect>(m_geom, m_materials, m_dirs, m_opt.nu, m_opt.nv);
+    if (vis == "exact" || (m_adaptive && ex->allFlat())) {
+      // Flat faces are exact; the hit maps (4 × 4 when adaptive was asked for) serve the smooth
+      // faces' uniform samples, the visibility map and the network's final gather, whose
+      // samples are the texel's (2 × 2 gives brick 6² texels 6.4 % from uniform 16 × 16).
+      m_adaptive = false;
+      m_exact = std::move(ex);
+    }
+  }
+}
+
+std::string SimulationJob::visibilityName() const {
+  if (!m_exact) return "sampled";
+  return m_exact->allFlat() ? "exact" : "exact+sampled";
 }
 
 SimulationJob::~SimulationJob() = default;
@@ -111,6 +131,17 @@ const EffectPlan& SimulationJob::plan() const {
                     "leak light at grazing incidence (box cavity +5 %% albedo at 76–87°)",
                     grazing, m_dirs.size(), m_opt.grazingRays);
       m_plan->decisions.push_back({"grazing_rays", value, reason, m_opt.grazingRaysForced, 0});
+    }
+    if (m_exact) {
+      char reason[320];
+      const ExactStats& s = m_exact->stats();
+      std::snprintf(reason, sizeof reason,
+                    "%lld of %lld faces flat: their direct light is exact by area (seen and lit "
+                    "parts as polygons, no samples)%s",
+                    (long long)s.flatFaces, (long long)s.faces,
+                    m_exact->allFlat() ? "" : "; smooth faces sampled uniformly on the hit maps");
+      m_plan->decisions.push_back(
+          {"visibility", visibilityName(), reason, m_opt.visibility == "exact", 0});
     }
     if (m_adaptive) {
       char value[32], reason[256];
@@ -245,6 +276,14 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
   const ShadowMode mode = selfShadowing ? m_opt.shadows : ShadowMode::None;
   DirectIllumination direct(*m_tracer, m_materials, pair, maps,
                             {mode, m_opt.shadowBias, m_opt.grazingRays});
+  // Exact visibility: the pair's flat faces by area (the network's light still sees the
+  // sampled visibility of the full run).
+  std::unique_ptr<ExactDirect> exact;
+  if (m_exact && !(pt && indirect)) {
+    exact = std::make_unique<ExactDirect>(m_geom, m_materials, pair, nu, nv);
+    exact->prepare(nullptr, cancel);
+    direct.skipTriangles(exact->shadedMask());
+  }
   NetworkLighting lighting;
   lighting.setClosedFormTail(pl && pl->closedFormTail);
   std::unique_ptr<NetworkGather> gather;
@@ -286,6 +325,11 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
       },
       cancel);
   throwIfCancelled(cancel, "preview");
+  if (exact) {
+    std::vector<float> e(img.size());
+    exact->evalPair(0, 1, e.data());
+    for (size_t k = 0; k < img.size(); ++k) img[k] += e[k];
+  }
   return img;
 }
 

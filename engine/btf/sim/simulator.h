@@ -10,6 +10,7 @@
 #include <btf/scene/scene.h>
 #include <btf/sim/adaptive.h>
 #include <btf/sim/direct.h>
+#include <btf/sim/exact_direct.h>
 #include <btf/sim/network.h>
 #include <btf/sim/planner.h>
 #include <btf/store/btf_store.h>
@@ -55,6 +56,10 @@ struct SimOptions {
   PlanRequest plan;
   NetworkSettings network = autoNetwork();  // voxels 0: one voxel per texel, in [64, 128]
   int ptPaths = 16;                         // --method pt: paths per texel sample
+  /// Direct light's visibility: "exact" (sim/exact_direct.h: flat faces by area, smooth faces
+  /// sampled uniformly on the hit maps), "sampled" (adaptive or uniform samples), "auto" (exact
+  /// when adaptive sampling is asked for and every face is flat; sampled otherwise).
+  std::string visibility = "auto";
 };
 
 /// Options from the scene's "simulation" block (the command line overrides them afterwards).
@@ -63,6 +68,7 @@ SimOptions optionsFromScene(const Scene& scene);
 struct SimEstimate {
   double seconds = 0, hitMapSeconds = 0, evalSeconds = 0;
   double networkSeconds = 0, lightSeconds = 0, gatherSeconds = 0;  // parts of the above
+  double exactSeconds = 0;  // exact visibility's share of evalSeconds
   uint64_t memoryBytes = 0, hitMapBytes = 0, chunkBytes = 0, diskBytes = 0, freeDiskBytes = 0;
   uint64_t networkBytes = 0;
   int chunkTexels = 1, chunks = 1;
@@ -87,6 +93,10 @@ struct SimReport {
   bool adaptive = false;
   std::string samplingJson, samplingText;
   double meanSamples = 0, estimatedError = 0;
+  // Exact visibility (empty when sampled): "exact" (every face flat) or "exact+sampled" (smooth
+  // faces sampled); the hidden-surface removal's time.
+  std::string visibility = "sampled";
+  double exactSeconds = 0;
   // A cluster job (docs/cluster.md): ranks, the chunks and texels this rank computed, and the
   // bytes it sent and received through the communicator.
   int ranks = 1, chunksComputed = 0;
@@ -109,6 +119,10 @@ class SimulationJob {
   std::string sceneHash() const;
   /// Adaptive sampling in effect (network method and not --sampling uniform).
   bool adaptive() const { return m_adaptive; }
+  /// Exact direct light in effect (--visibility, or auto on a faceted scene): null when sampled.
+  const ExactDirect* exactDirect() const { return m_exact.get(); }
+  /// "exact", "exact+sampled" (smooth faces sampled) or "sampled".
+  std::string visibilityName() const;
   /// Samples per texel side of the hit maps: spp when uniform; 4 (or 2 when the memory budget
   /// is tight, or --max-spp 2) when adaptive.
   int mapSpp() const { return m_mapSpp; }
@@ -177,6 +191,7 @@ class SimulationJob {
   Comm* m_comm = nullptr;
   bool m_adaptive = false;
   int m_mapSpp = 1;
+  std::unique_ptr<ExactDirect> m_exact;  // prepared by run() (and the estimate's calibration)
   void checkCancel() const;
 };
 

@@ -50,6 +50,8 @@ struct TexelKernel {
   PathSettings pt;
   int ptPaths = 1;
   std::vector<DVec3> lights;
+  /// Exact direct light by area for the flat faces (prepared); `direct` then skips them.
+  const ExactDirect* exact = nullptr;
 
   /// Texels evaluated together per (block, view) item: the plain direct kernel lights a block
   /// light by light (DirectIllumination::evalTexelsView); the other kernels go texel by texel.
@@ -98,8 +100,48 @@ struct TexelKernel {
         for (int c = 0; c < 3; ++c) out[3 * l + c] = std::isfinite(acc[l][c]) ? acc[l][c] : 0.f;
       return int64_t(K2) * ptPaths * nL;
     }
+    if (exact) {
+      // One texel of the exact view (the run goes view by view over whole chunks instead).
+      thread_local std::vector<float> ex;
+      ex.assign(size_t(nL) * 3, 0.f);
+      const int64_t t = int64_t(j) * g.nu + i;
+      exact->evalView(view, t, t + 1, ex.data(), 0);
+      int64_t n = 0;
+      if (exact->allFlat())
+        std::fill(out, out + size_t(nL) * 3, 0.f);
+      else
+        n = direct.evalTexelView(i, j, view, out);
+      for (size_t k = 0; k < ex.size(); ++k) out[k] += ex[k];
+      if (gather) addGather(i, j, view, out);
+      return n;
+    }
     const int64_t n = direct.evalTexelView(i, j, view, out);
     if (gather) addGather(i, j, view, out);
+    return n;
+  }
+
+  /// Views [v0, v1) of texels [t0, t1) with exact visibility: per view, every texel and light
+  /// at once (texel t's view v at out + (t − t0)·texelStride + (v − v0)·nL·3), plus the smooth
+  /// faces' samples and the gather. Returns the sampled kernel's BRDF evaluations.
+  int64_t evalExactView(int64_t t0, int64_t t1, int view, int v0, float* out,
+                        size_t texelStride) const {
+    const int nL = dirs.size();
+    const int nu = maps.grid().nu;
+    float* base = out + size_t(view - v0) * size_t(nL) * 3;
+    exact->evalView(view, t0, t1, base, texelStride);
+    int64_t n = 0;
+    if (exact->allFlat() && !gather) return n;
+    thread_local std::vector<float> row;
+    row.resize(size_t(nL) * 3);
+    for (int64_t t = t0; t < t1; ++t) {
+      float* o = base + size_t(t - t0) * texelStride;
+      const int i = int(t % nu), j = int(t / nu);
+      if (!exact->allFlat()) {
+        n += direct.evalTexelView(i, j, view, row.data());
+        for (size_t k = 0; k < row.size(); ++k) o[k] += row[k];
+      }
+      if (gather) addGather(i, j, view, o);
+    }
     return n;
   }
 

@@ -45,6 +45,7 @@ SimOptions adaptiveOptions(int maxK, float tolerance, ShadowMode shadows) {
   o.shadows = shadows;
   o.adaptiveSettings.edgeCells = maxK > 8;  // the convergence settings: no sliver missed
   o.plan.interreflection = Toggle::Off;     // direct light only: the analytic value below
+  o.visibility = "sampled";                 // the sampler itself (faceted scenes go exact)
   o.progress = false;
   return o;
 }
@@ -207,6 +208,7 @@ SimOptions sceneOptions(const Scene& s, int texels, const std::string& dirs) {
   SimOptions o = optionsFromScene(s);
   o.nu = o.nv = texels;
   o.directions = dirs;
+  o.visibility = "sampled";  // the sampler itself (faceted scenes go exact by default)
   o.progress = false;
   return o;
 }
