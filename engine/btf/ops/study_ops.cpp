@@ -258,10 +258,10 @@ void study(const Call& c) {
   out.scene = scene.name;
   out.output = dir;
   for (const auto& res : st.results) {
-    t += format("%-52s %8.2fs %7.2f%% %7.2f%% %7.1f%% %7s\n", res.config.label().c_str(),
+    t += format("%-52s %8.2fs %7.2f%% %7.2f%% %7.1f%% %7s\n", res.label().c_str(),
                 res.seconds, 100 * res.probeRelRmse, 100 * res.setRelRmse, 100 * res.imageRelRmse,
                 res.pareto ? "*" : "");
-    out.configurations.push_back({res.config.label(), res.seconds, res.probeRelRmse,
+    out.configurations.push_back({res.label(), res.seconds, res.probeRelRmse,
                                   res.setRelRmse, res.imageRelRmse, res.pareto});
   }
   t += "wrote " + dir + "/study.csv, study.md, study.svg\n";

@@ -232,6 +232,7 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
       res.config = c;
       const auto start = Clock::now();
       SimulationJob job(scene, so);
+      res.visibility = job.visibilityName();
       job.plan();  // builds the network: part of the measured time
       const double planSeconds = since(start);
       // Sinks: the tile average of every (view, light) and the per-texel images of the probes.
@@ -456,7 +457,7 @@ void writeStudy(const Study& s, const std::string& dir) {
     char line[512];
     std::snprintf(line, sizeof line,
                   "\"%s\",%s,%d,%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%zu,%.6f,%.6f,%.6f,%.6f,%llu,%d\n",
-                  c.label().c_str(), c.dirs.c_str(), c.spp, shadowModeName(c.shadows), c.bounces,
+                  r.label().c_str(), c.dirs.c_str(), c.spp, shadowModeName(c.shadows), c.bounces,
                   c.voxels, c.gather, c.links, r.seconds, r.precomputeSeconds, r.renderSeconds,
                   r.networkPoints, r.probeRelRmse, r.setRelRmse, r.probeMaxRel, r.imageRelRmse,
                   (unsigned long long)r.peakRssBytes, r.pareto ? 1 : 0);
@@ -471,7 +472,7 @@ void writeStudy(const Study& s, const std::string& dir) {
       char line[400];
       std::snprintf(line, sizeof line,
                     "\"%s\",%zu,%.1f,%.1f,%.1f,%.1f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n",
-                    r.config.label().c_str(), p, rad2deg(std::acos(a.z)),
+                    r.label().c_str(), p, rad2deg(std::acos(a.z)),
                     rad2deg(std::atan2(a.y, a.x)), rad2deg(std::acos(b.z)),
                     rad2deg(std::atan2(b.y, b.x)), s.reference[p].x, s.reference[p].y,
                     s.reference[p].z, r.probeValues[p].x, r.probeValues[p].y, r.probeValues[p].z);
@@ -496,7 +497,7 @@ void writeStudy(const Study& s, const std::string& dir) {
     std::snprintf(
         line, sizeof line,
         "| %s | %.2f s | %.2f s | %.2f s | %zu | %.2f %% | %.2f %% | %.1f %% | %.1f %% | %s |\n",
-        r.config.label().c_str(), r.seconds, r.precomputeSeconds, r.renderSeconds, r.networkPoints,
+        r.label().c_str(), r.seconds, r.precomputeSeconds, r.renderSeconds, r.networkPoints,
         100 * r.probeRelRmse, 100 * r.setRelRmse, 100 * r.probeMaxRel, 100 * r.imageRelRmse,
         r.pareto ? "●" : "");
     md << line;
@@ -549,9 +550,9 @@ void writeStudy(const Study& s, const std::string& dir) {
   }
   for (const auto& r : s.results) {
     svg << "<circle cx='" << X(r.seconds) << "' cy='" << Y(r.probeRelRmse) << "' r='4' fill='"
-        << (r.pareto ? "#d33" : "#4a7") << "'><title>" << r.config.label() << "</title></circle>"
+        << (r.pareto ? "#d33" : "#4a7") << "'><title>" << r.label() << "</title></circle>"
         << "<text x='" << X(r.seconds) + 6 << "' y='" << Y(r.probeRelRmse) - 5
-        << "' font-size='9' fill='#555'>" << r.config.label() << "</text>\n";
+        << "' font-size='9' fill='#555'>" << r.label() << "</text>\n";
   }
   svg << "</svg>\n";
   writeAtomic(dir + "/study.svg", svg.str());

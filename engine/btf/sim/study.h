@@ -37,6 +37,13 @@ struct StudyResult {
   double imageRelRmse = 0;  // per-texel images vs the reference images
   size_t networkPoints = 0;
   uint64_t peakRssBytes = 0;
+  /// The direct light's visibility the run took (SimulationJob::visibilityName): spp 0 on a
+  /// faceted scene runs exact by area, not adaptive.
+  std::string visibility = "sampled";
+  /// config.label(), with " (exact)" / " (exact+sampled)" when the visibility was exact.
+  std::string label() const {
+    return visibility == "sampled" ? config.label() : config.label() + " (" + visibility + ")";
+  }
   std::vector<Rgb> probeValues;  // the configuration's texel-averaged aBRDF at each probe
   std::vector<Rgb> setValues, setReference;  // at the snapped probes, and their reference
   bool pareto = false;
