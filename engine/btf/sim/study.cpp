@@ -343,6 +343,7 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
                           {"image", res.imageRelRmse},
                           {"points", res.networkPoints},
                           {"rss", res.peakRssBytes},
+                          {"visibility", res.visibility},
                           {"values", rgb(res.probeValues)},
                           {"set_values", rgb(res.setValues)},
                           {"set_reference", rgb(res.setReference)}});
@@ -366,6 +367,7 @@ Study runStudy(const Scene& scene, const StudyOptions& o) {
         res.imageRelRmse = j["image"];
         res.networkPoints = j["points"];
         res.peakRssBytes = j["rss"];
+        res.visibility = j["visibility"];
         auto rgb = [](const nlohmann::json& a) {
           const std::vector<float> f = a.get<std::vector<float>>();
           std::vector<Rgb> v;
