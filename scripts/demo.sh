@@ -13,7 +13,7 @@ SCENE=resources/scenes/brick.json
 mkdir -p out
 echo "== effect plan of $SCENE"
 "$SIM" plan "$SCENE"
-echo "== simulate $SCENE (32x32 texels, 6x16a directions: 81 x 81 pairs, adaptive texel integration, GI by the point network)"
+echo "== simulate $SCENE (32x32 texels, 6x16a directions: 81 x 81 pairs, direct light exact by area (every face flat), GI by the point network)"
 "$SIM" simulate "$SCENE" -o out/brick.btf --json > out/brick.summary.json
 cat out/brick.summary.json
 echo "== info"
