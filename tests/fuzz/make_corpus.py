@@ -297,9 +297,10 @@ def btfs(btfsim, tmp):
     run("simulate", plane, "-o", os.path.join(tmp, "flat.btf"), "--texels", "2", "--dirs", "2x4")
     for f in ("brick.btf", "brick3.btf", "flat.btf"):
         shutil.copy(os.path.join(tmp, f), os.path.join(HERE, "corpus", "btf", f))
-    for codec in ("nmf", "svd", "perview", "lpca", "tensor"):
+    for codec in ("nmf", "svd", "perview", "lpca", "tensor", "neural"):
         out = os.path.join(tmp, codec + ".cbtf")
-        run("compress", os.path.join(tmp, "brick3.btf"), "-o", out, "--codec", codec)
+        extra = ["--neural-steps", "50"] if codec == "neural" else []
+        run("compress", os.path.join(tmp, "brick3.btf"), "-o", out, "--codec", codec, *extra)
         shutil.copy(out, os.path.join(HERE, "corpus", "cbtf", codec + ".cbtf"))
     run("compress", os.path.join(tmp, "brick3.btf"), "-o", os.path.join(tmp, "mip.cbtf"),
         "--codec", "tensor", "--mip")

@@ -68,7 +68,7 @@ void drawInspectorPanel(const InspectorView& app) {
     }
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip(
-          "compress the reference with every codec (nmf, svd, perview, lpca, tensor) at the Jobs "
+          "compress the reference with every codec (nmf, svd, perview, lpca, tensor, neural) at the Jobs "
           "form's target ratio and compare each");
   }
   if (!s.codecs.empty() &&

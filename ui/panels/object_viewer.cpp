@@ -39,6 +39,9 @@ std::string decoderFragment(std::initializer_list<const char*> pieces) {
 void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
   ObjectState& o = app.obj;
   const CompressedBtf& c = *app.insp.cbtf;
+  if (c.codec == "neural")
+    throw Error("the GPU object view has no neural decoder yet (docs/compression.md, "
+                "\"neural\"): use Render on CPU, or btfsim render");
   if (o.bound != app.insp.compressed) {
     o.buffers.clear();
     auto addData = [&](const float* data, size_t n, bool half) {

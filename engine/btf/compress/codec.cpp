@@ -13,7 +13,8 @@
 namespace btf {
 
 const std::vector<std::string>& codecNames() {
-  static const std::vector<std::string> names = {"nmf", "svd", "perview", "lpca", "tensor"};
+  static const std::vector<std::string> names = {"nmf", "svd", "perview", "lpca", "tensor",
+                                                  "neural"};
   return names;
 }
 
@@ -21,7 +22,7 @@ void validate(const CodecSettings& s) {
   const auto& n = codecNames();
   if (std::find(n.begin(), n.end(), s.codec) == n.end())
     throw Error("--codec: unknown codec '" + s.codec +
-                "' (expected nmf, svd, perview, lpca or tensor)");
+                "' (expected nmf, svd, perview, lpca, tensor or neural)");
   if (s.colour != "rgb" && s.colour != "ycc")
     throw Error("--colour-model: '" + s.colour + "' (expected rgb or ycc)");
   if (s.components < 0) throw Error("--components: must be ≥ 0");
@@ -35,6 +36,17 @@ void validate(const CodecSettings& s) {
   if (s.nmfIterations < 1) throw Error("--nmf-iterations: must be ≥ 1");
   if (s.trainTexels < 1) throw Error("--train-texels: must be ≥ 1");
   if (s.clusters < 0) throw Error("--clusters: must be ≥ 0 (0 = the codec's default)");
+  if (s.codec == "neural") {
+    if (s.components > 64)
+      throw Error("--components: the neural codec's latent holds at most 64 values per texel");
+    if (s.neuralHidden < 4 || s.neuralHidden > 256) throw Error("--hidden: must be in [4, 256]");
+    if (s.neuralLayers < 1 || s.neuralLayers > 8) throw Error("--hidden-layers: must be in [1, 8]");
+    if (s.neuralSteps < 1) throw Error("--neural-steps: must be ≥ 1");
+    if (!(s.neuralRate > 0 && s.neuralRate < 1)) throw Error("--learning-rate: must be in (0, 1)");
+    if (s.neuralEncoding != "halfdiff" && s.neuralEncoding != "raw" &&
+        s.neuralEncoding != "fourier")
+      throw Error("--encoding: '" + s.neuralEncoding + "' (expected halfdiff, fourier or raw)");
+  }
   if (s.halfway && s.codec != "tensor")
     throw Error("--halfway: the half-vector reparameterisation is an option of the tensor codec "
                 "(not " + s.codec + ")");
@@ -60,6 +72,10 @@ std::string settingsJson(const CodecSettings& s) {
     if (s.codec == "tensor") {
       j["clusters"] = s.clusters;  // 0: √(texels / 2), see clusters_used
       if (s.halfway) j["halfway"] = true;
+    }
+    if (s.codec == "neural") {
+      j["neural_steps"] = s.neuralSteps;
+      j["learning_rate"] = s.neuralRate;
     }
   }
   j["precision"] = s.half ? "f16" : "f32";
@@ -146,6 +162,7 @@ std::unique_ptr<Encoder> makeEncoder(const CodecSettings& s, const BtfInfo& info
   if (s.codec == "svd") return makeSvdEncoder(s, info, cancel);
   if (s.codec == "perview") return makePerViewEncoder(s, info, cancel);
   if (s.codec == "tensor") return makeTensorEncoder(s, info, cancel);
+  if (s.codec == "neural") return makeNeuralEncoder(s, info, cancel);
   return makeLpcaEncoder(s, info, cancel);
 }
 
@@ -159,11 +176,12 @@ std::unique_ptr<Decoder> makeDecoder(CompressedBtf c) {
     if (c.codec == "perview") return makePerViewDecoder(std::move(c));
     if (c.codec == "lpca") return makeLpcaDecoder(std::move(c));
     if (c.codec == "tensor") return makeTensorDecoder(std::move(c));
+    if (c.codec == "neural") return makeNeuralDecoder(std::move(c));
   } catch (const Error& e) {
     throw Error(where + ": " + e.what());
   }
   throw Error(where + ": unknown codec '" + c.codec +
-              "' (expected nmf, svd, perview, lpca or tensor)");
+              "' (expected nmf, svd, perview, lpca, tensor or neural)");
 }
 
 // ------------------------------------------------------------------ Decoder

@@ -22,7 +22,7 @@ namespace btf {
 class ProgressReporter;
 
 struct CodecSettings {
-  std::string codec = "nmf";   // nmf | svd | perview | lpca | tensor
+  std::string codec = "nmf";   // nmf | svd | perview | lpca | tensor | neural
   std::string colour = "ycc";  // rgb | ycc (Y = mean of RGB, U = R − Y, V = B − Y)
   // Components: explicit (> 0) or from a target (relative RMSE or ratio); else the default
   // target below.
@@ -40,6 +40,13 @@ struct CodecSettings {
   int trainTexels = 256;      // stratified training subset (per-view, global SVD, clustered PCA)
   int clusters = 0;           // lpca, tensor (0 = the codec's default: 8; √(texels / 2))
   bool halfway = false;       // tensor: factorise each view's slice in half-vector coordinates
+  // Neural (codec_neural.cpp): latent size = components (0: from the target), the decoder's
+  // hidden layers and width, Adam steps and learning rate, the direction encoding.
+  int neuralHidden = 32;
+  int neuralLayers = 2;
+  int neuralSteps = 4000;
+  double neuralRate = 2e-2;
+  std::string neuralEncoding = "fourier";  // fourier | halfdiff | raw
   bool half = true;           // f16 arrays (else f32)
   uint64_t memoryBudget = 0;  // > 0: compressStore refuses to start beyond it
   uint64_t seed = 1;
@@ -69,6 +76,8 @@ class Encoder {
   virtual void train(const float* /*values*/) {}
   /// Texels [t0, t1), texel-major. Called in any order, one call at a time.
   virtual void add(int64_t t0, int64_t t1, const float* values) = 0;
+  /// Prints the codec's own long stages (training) on stderr.
+  virtual void setProgress(bool /*on*/) {}
   /// Builds the arrays (quantized as they will be stored).
   virtual CompressedBtf finish() = 0;
   /// Memory the encoder holds (for the budget check and the estimate).
@@ -148,10 +157,13 @@ class Decoder {
   virtual void texel(int64_t t, float* out) const = 0;
   /// One value (what a shader does).
   virtual std::array<float, 3> value(int64_t t, int view, int light) const = 0;
-  /// aBRDF at a texel for any directions: interpolated between the set's directions (bilinear
-  /// on θ × φ grids, ring-linear on the Bonn sets; DirectionSet::interpolate).
-  std::array<float, 3> evaluate(int64_t t, double thetaI, double phiI, double thetaO,
-                                double phiO) const;
+  /// aBRDF at a texel for any directions (radians): interpolated between the set's directions
+  /// (bilinear on θ × φ grids, ring-linear on the Bonn sets; DirectionSet::interpolate), or the
+  /// codec's own continuous decode (neural).
+  virtual std::array<float, 3> evaluate(int64_t t, double thetaI, double phiI, double thetaO,
+                                        double phiO) const;
+  /// True when evaluate() is the codec's own function of direction (not interpolation).
+  virtual bool continuous() const { return false; }
   /// Same at a tile position (x, y) in texel units, bilinear between the four nearest texels
   /// (periodic).
   std::array<float, 3> evaluateAt(double x, double y, double thetaI, double phiI, double thetaO,
@@ -191,6 +203,9 @@ std::unique_ptr<Encoder> makePerViewEncoder(const CodecSettings&, const BtfInfo&
 std::unique_ptr<Encoder> makeLpcaEncoder(const CodecSettings&, const BtfInfo&, const CancelToken*);
 std::unique_ptr<Encoder> makeTensorEncoder(const CodecSettings&, const BtfInfo&,
                                            const CancelToken*);
+std::unique_ptr<Encoder> makeNeuralEncoder(const CodecSettings&, const BtfInfo&,
+                                           const CancelToken*);
+std::unique_ptr<Decoder> makeNeuralDecoder(CompressedBtf c);
 std::unique_ptr<Decoder> makeNmfDecoder(CompressedBtf c);
 std::unique_ptr<Decoder> makeTensorDecoder(CompressedBtf c);
 std::unique_ptr<Decoder> makeSvdDecoder(CompressedBtf c);

@@ -45,6 +45,7 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
     const BtfReader& in = *reader;
     const BtfInfo& info = in.info();
     enc = makeEncoder(s, info, cancel);
+    enc->setProgress(progress);
     r.texels = info.texels();
     r.texelBytes = double(info.texelBytes());
     const auto train = enc->trainingTexels();

@@ -75,6 +75,12 @@ class PyramidLevel final : public Decoder {
     check(t);
     return m_strip->value(m_first + t, view, light);
   }
+  std::array<float, 3> evaluate(int64_t t, double thetaI, double phiI, double thetaO,
+                                double phiO) const override {
+    check(t);
+    return m_strip->evaluate(m_first + t, thetaI, phiI, thetaO, phiO);
+  }
+  bool continuous() const override { return m_strip->continuous(); }
   std::string kind() const override { return m_strip->kind(); }
 
  private:

@@ -131,12 +131,14 @@ Opts effectOptions() {
 Opts codecOptions(bool withName) {
   Opts o;
   if (withName)
-    o.push_back(en("codec", "nmf", {"nmf", "svd", "perview", "lpca", "tensor"},
-                   "nmf (per-texel NMF + PCA), svd, perview, lpca or tensor (clustered Tucker)"));
+    o.push_back(en("codec", "nmf", {"nmf", "svd", "perview", "lpca", "tensor", "neural"},
+                   "nmf (per-texel NMF + PCA), svd, perview, lpca, tensor (clustered Tucker) or "
+                   "neural (latent texels + a shared decoder network)"));
   append(o, {
                 en("colour_model", "ycc", {"ycc", "rgb"},
                    "rgb or ycc (luminance + two chroma channels)"),
-                in("components", 0, 0, 4096, "PCA components (0 = from the target)"),
+                in("components", 0, 0, 4096,
+                   "PCA components; neural: latent values per texel (0 = from the target)"),
                 fl("target_rmse", 0, 0, 1, "relative RMSE target, e.g. 0.05 (0 = the default 5 %)"),
                 fl("target_ratio", 0, 0, 1e6, "compression ratio target, e.g. 300 (0 = none)"),
                 excl(fl("beta", 0.995, 0, 1, "nmf: β of the per-texel rank rule (eq. 3.21)")),
@@ -153,6 +155,15 @@ Opts codecOptions(bool withName) {
                 flag("halfway",
                      "tensor: factorise each view's light slice in half-vector coordinates "
                      "(docs/compression.md)"),
+                in("hidden", 32, 4, 256, "neural: width of the decoder's hidden layers"),
+                in("hidden_layers", 2, 1, 8, "neural: hidden layers of the decoder"),
+                in("neural_steps", 4000, 1, 1000000,
+                   "neural: Adam steps of 4096 samples training the decoder"),
+                fl("learning_rate", 2e-2, 1e-6, 0.5, "neural: Adam's initial learning rate"),
+                en("encoding", "fourier", {"fourier", "halfdiff", "raw"},
+                   "neural: the decoder's direction input: halfdiff (both directions, the half "
+                   "vector and the difference vector), fourier (those and their sines and "
+                   "cosines) or raw (both directions)"),
                 flag("f32", "store float32 arrays instead of float16"),
             });
   return o;
@@ -179,7 +190,7 @@ std::vector<CommandDecl> build() {
     append(c.options, effectOptions());
     append(c.options,
            {str("compress", "",
-                "compress while simulating with this codec (nmf, svd, perview, lpca, tensor); "
+                "compress while simulating with this codec (nmf, svd, perview, lpca, tensor, neural); "
                 "the output is a .cbtf and no raw BTF is written")});
     append(c.options, codecOptions(false));
     append(c.options,

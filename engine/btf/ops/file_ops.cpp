@@ -33,8 +33,10 @@ void warnTarget(const Call& c, const CompressedBtf& b) {
   if (stage > target * 1.05)
     c.warn(format("the %s stage alone leaves a relative RMSE of %.1f %% (target %.1f %%)%s",
                   b.codec.c_str(), 100 * stage, 100 * target,
-                  b.codec == "nmf" ? ": the per-texel rank cap binds — raise --max-rank"
-                                   : " on the training texels: raise --train-texels"));
+                  b.codec == "nmf"      ? ": the per-texel rank cap binds — raise --max-rank"
+                  : b.codec == "neural" ? " on the training texels: raise --components (the "
+                                          "latent), --hidden or --neural-steps"
+                                        : " on the training texels: raise --train-texels"));
 }
 
 std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss) {

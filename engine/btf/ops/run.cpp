@@ -152,6 +152,11 @@ CodecSettings codecSettings(const Request& r, const std::string& codec) {
     s.trainTexels = r.i("train_texels");
     s.clusters = r.i("clusters");
     s.halfway = r.b("halfway");
+    s.neuralHidden = r.i("hidden");
+    s.neuralLayers = r.i("hidden_layers");
+    s.neuralSteps = r.i("neural_steps");
+    s.neuralRate = r.f("learning_rate");
+    s.neuralEncoding = r.s("encoding");
     s.half = !r.b("f32");
   }
   validate(s);

@@ -180,7 +180,7 @@ void simulate(const Call& c) {
       const auto& names = codecNames();
       if (std::find(names.begin(), names.end(), codec) == names.end())
         throw Error("--compress: unknown codec '" + codec +
-                    "' (expected nmf, svd, perview, lpca or tensor)");
+                    "' (expected nmf, svd, perview, lpca, tensor or neural)");
     }
     jobPtr = std::make_unique<SimulationJob>(scene, o);
     jobPtr->setCancel(c.ctx.cancel);

@@ -253,9 +253,22 @@ Rgb BtfSampler::eval(double x, double y, const DVec3& wo, const DVec3& wi,
                      const Footprint* fp) const {
   DirWeight wv[4], wl[4];
   const int nv = interp(*m_dirs, wo, wv), nl = interp(*m_dirs, wi, wl);
+  // A decoder continuous in direction (neural) is evaluated at the pair itself at level 0;
+  // coarser levels, decoded into memory, interpolate between the set's directions.
+  const Decoder* cont = m_lv[0].dec && m_lv[0].dec->continuous() ? m_lv[0].dec.get() : nullptr;
+  double ang[4] = {0, 0, 0, 0};
+  if (cont) {
+    ang[0] = std::acos(std::clamp(wi.z, -1.0, 1.0)), ang[1] = std::atan2(wi.y, wi.x);
+    ang[2] = std::acos(std::clamp(wo.z, -1.0, 1.0)), ang[3] = std::atan2(wo.y, wo.x);
+  }
   Rgb acc(0);
   filtered(x, y, fp, [&](int level, double px, double py, double lw) {
     bilinear(level, px, py, [&](int64_t t, double w) {
+      if (cont && level == 0) {
+        const auto v = cont->evaluate(t, ang[0], ang[1], ang[2], ang[3]);
+        acc += float(lw * w) * Rgb(v[0], v[1], v[2]);
+        return;
+      }
       for (int a = 0; a < nv; ++a)
         for (int b = 0; b < nl; ++b)
           acc += float(lw * w * wv[a].weight * wl[b].weight) *

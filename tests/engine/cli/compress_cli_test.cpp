@@ -109,7 +109,7 @@ TEST(BtfsimCompress, BadInputsAreClearErrors) {
     std::string args, expect;
   } cases[] = {
       {"compress " + a + " -o x.cbtf --codec jpeg",
-       "--codec: must be one of nmf, svd, perview, lpca, tensor (got 'jpeg')"},
+       "--codec: must be one of nmf, svd, perview, lpca, tensor, neural (got 'jpeg')"},
       {"compress " + a + " -o x.cbtf --target-rmse 0.05 --target-ratio 300",
        "give one of them, not both"},
       {"compress " + a + " -o x.cbtf --beta 0", "--beta: must be in (0, 1]"},

@@ -46,6 +46,7 @@ TEST(Codecs, LowRankBtfsReconstructToFloatPrecision) {
   const auto ref = openBtf(raw);
   for (const std::string& codec : codecNames())
     for (const std::string colour : {"rgb", "ycc"}) {
+      if (codec == "neural") continue;  // not a linear model: neural_test.cpp's own bounds
       CompressReport rep;
       CompressedBtf c = compressStore(raw, exact(codec, colour), false, nullptr, &rep);
       const auto dec = makeDecoder(std::move(c));
@@ -67,6 +68,7 @@ TEST(Codecs, StreamingInAnyChunkingEqualsCompressingTheStoredFile) {
     s.trainTexels = 16;
     s.clusters = 3;
     s.components = 3;
+    s.neuralSteps = 50;
     const CompressedBtf fromFile = compressStore(raw, s, false, nullptr, nullptr);
     // Stream: training texels first, then texels in reverse order in chunks of 5.
     auto enc = trainedEncoder(s, info, values);
@@ -147,6 +149,7 @@ TEST(Codecs, ShadowedTexelsAndHugeDynamicRangeStayFinite) {
     s.codec = codec;
     s.trainTexels = 36;
     s.clusters = 4;
+    s.neuralSteps = 1500;
     const auto dec = makeDecoder(compressStore(raw, s, false, nullptr, nullptr));
     for (int64_t t = 0; t < info.texels(); ++t) {
       dec->texel(t, buf.data());

@@ -29,6 +29,7 @@ TEST(Distributed, EncodersMergedFromThreeRanksWriteTheSameArraysAsOne) {
     s.trainTexels = 16;
     s.clusters = 3;
     s.targetRatio = 8;
+    s.neuralSteps = 50;
     auto one = trainedEncoder(s, info, values);
     one->add(0, info.texels(), values.data());
     const CompressedBtf single = one->finish();
@@ -62,6 +63,7 @@ TEST(Distributed, CorruptEncoderStatesAreRefused) {
     s.codec = codec;
     s.trainTexels = 8;
     s.clusters = 2;
+    s.neuralSteps = 50;
     auto a = trainedEncoder(s, info, values);
     a->add(0, 8, values.data());
     const std::string state = a->addedState();
