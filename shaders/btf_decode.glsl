@@ -11,7 +11,7 @@ uniform int u_ringFirst[MAX_RINGS];
 uniform int u_nu;
 uniform int u_nv;
 uniform int u_n;      // directions in the set
-uniform int u_codec;  // 0 nmf, 1 svd, 2 perview, 3 lpca, 4 tensor
+uniform int u_codec;  // 0 nmf, 1 svd, 2 perview, 3 lpca, 4 tensor, 5 neural
 uniform int u_ycc;    // 1: channels are Y, U, V
 uniform int u_c0[3];  // nmf: Cv; linear codecs: C
 uniform int u_c1[3];  // nmf: Cl
@@ -116,12 +116,91 @@ vec3 decodeValue(int t, int o, int l) {
   return max(rgb, vec3(0.0));
 }
 
+// neural (codec_neural.cpp): u_a0 the network's parameters (per layer W, out × in column-major,
+// then b), u_b0 the latents (texels × L), u_c0buf the gains. value = g_t · max(0, cos θ_i) ·
+// net(z_t, features(ω_i, ω_o)) in the colour model, then RGB and clamped like the CPU. Layer 0's
+// direction part (W·f + b) is formed once per lookup and shared by the bilinear texels.
+#define NN_MAX 128
+#define NN_LAYERS 9
+uniform int u_nnLayers;            // layers (hidden layers + 1)
+uniform int u_nnSize[NN_LAYERS + 1];
+uniform int u_nnW[NN_LAYERS];      // offsets of W and b per layer in u_a0
+uniform int u_nnB[NN_LAYERS];
+uniform int u_nnEnc;               // 0 raw (6 features), 1 halfdiff (12), 2 fourier (36)
+float nnDir[NN_MAX];
+float nnA[NN_MAX];
+float nnB[NN_MAX];
+
+int nnFeatures(float thetaI, float phiI, float thetaO, float phiO, out float f[36]) {
+  for (int i = 0; i < 36; ++i) f[i] = 0.0;
+  vec3 wi = vec3(sin(thetaI) * cos(phiI), sin(thetaI) * sin(phiI), cos(thetaI));
+  vec3 wo = vec3(sin(thetaO) * cos(phiO), sin(thetaO) * sin(phiO), cos(thetaO));
+  f[0] = wi.x; f[1] = wi.y; f[2] = wi.z;
+  f[3] = wo.x; f[4] = wo.y; f[5] = wo.z;
+  if (u_nnEnc == 0) return 6;
+  vec3 h = wi + wo;
+  float len = length(h);
+  h = len > 1e-9 ? h / len : vec3(0.0, 0.0, 1.0);
+  f[6] = h.x; f[7] = h.y; f[8] = h.z;
+  float th = acos(clamp(h.z, -1.0, 1.0)), ph = atan(h.y, h.x);
+  if (abs(h.x) + abs(h.y) == 0.0) ph = 0.0;
+  float cp = cos(ph), sp = sin(ph), ct = cos(th), st = sin(th);
+  float x = wi.x * cp + wi.y * sp, y = -wi.x * sp + wi.y * cp, z = wi.z;
+  f[9] = x * ct - z * st; f[10] = y; f[11] = x * st + z * ct;
+  if (u_nnEnc == 1) return 12;
+  for (int i = 0; i < 12; ++i) {
+    f[12 + 2 * i] = sin(3.14159265358979 * f[i]);
+    f[13 + 2 * i] = cos(3.14159265358979 * f[i]);
+  }
+  return 36;
+}
+
+// Layer 0's direction part at one pair into nnDir; returns max(0, cos θ_i).
+float nnDirection(float thetaI, float phiI, float thetaO, float phiO) {
+  float f[36];
+  int D = nnFeatures(thetaI, phiI, thetaO, phiO, f);
+  int out0 = u_nnSize[1], L = u_nnSize[0] - D;
+  for (int j = 0; j < out0; ++j) {
+    float s = fetch(u_a0, u_nnB[0] + j);
+    for (int i = 0; i < D; ++i) s += fetch(u_a0, u_nnW[0] + (L + i) * out0 + j) * f[i];
+    nnDir[j] = s;
+  }
+  return max(f[2], 0.0);
+}
+
+// Texel t's value at the pair whose direction part is in nnDir.
+vec3 nnTexel(int t, float cosine) {
+  float g = fetch(u_c0buf, t);
+  if (g == 0.0) return vec3(0.0);
+  int D = u_nnEnc == 0 ? 6 : u_nnEnc == 1 ? 12 : 36;
+  int L = u_nnSize[0] - D, out0 = u_nnSize[1];
+  for (int j = 0; j < out0; ++j) {
+    float s = nnDir[j];
+    for (int q = 0; q < L; ++q) s += fetch(u_a0, u_nnW[0] + q * out0 + j) * fetch(u_b0, t * L + q);
+    nnA[j] = u_nnLayers > 1 ? max(s, 0.0) : s;
+  }
+  for (int l = 1; l < u_nnLayers; ++l) {
+    int nin = u_nnSize[l], nout = u_nnSize[l + 1];
+    bool last = l == u_nnLayers - 1;
+    for (int j = 0; j < nout; ++j) {
+      float s = fetch(u_a0, u_nnB[l] + j);
+      for (int i = 0; i < nin; ++i) s += fetch(u_a0, u_nnW[l] + i * nout + j) * nnA[i];
+      nnB[j] = last ? s : max(s, 0.0);
+    }
+    for (int j = 0; j < nout; ++j) nnA[j] = nnB[j];
+  }
+  vec3 c = vec3(nnA[0], nnA[1], nnA[2]) * (g * cosine);
+  vec3 rgb = u_ycc == 1 ? vec3(c.x + c.y, c.x - c.y - c.z, c.x + c.z) : c;
+  return max(rgb, vec3(0.0));
+}
+
 vec3 decodeFactorTexels(int tt[4], float tw[4], float thetaI, float phiI, float thetaO,
                         float phiO);
 bool nmfFast();
 
 // aBRDF of texel t at any directions (radians): 4 × 4 interpolated values.
 vec3 decodeTexel(int t, float thetaI, float phiI, float thetaO, float phiO) {
+  if (u_codec == 5) return nnTexel(t, nnDirection(thetaI, phiI, thetaO, phiO));
   if (nmfFast() || u_codec == 4) {
     int tt[4] = int[4](t, t, t, t);
     float tw[4] = float[4](1.0, 0.0, 0.0, 0.0);
@@ -273,6 +352,23 @@ vec3 decodeFactorTexels(int tt[4], float tw[4], float thetaI, float phiI, float 
 // `first` (a level; 0 for level 0), bilinear between texel centres (periodic).
 vec3 decodeAtGrid(float x, float y, int nu, int nv, int first, float thetaI, float phiI,
                   float thetaO, float phiO) {
+  if (u_codec == 5) {
+    // neural: continuous in direction (no interpolation between the set's), one direction part.
+    float cosine = nnDirection(thetaI, phiI, thetaO, phiO);
+    float fx = x - 0.5, fy = y - 0.5;
+    float x0 = floor(fx), y0 = floor(fy);
+    float ax = fx - x0, ay = fy - y0;
+    vec3 acc = vec3(0.0);
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i) {
+        float w = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
+        if (w <= 0.0) continue;
+        int u = int(mod(x0 + float(i), float(nu)));
+        int v = int(mod(y0 + float(j), float(nv)));
+        acc += w * nnTexel(first + u + nu * v, cosine);
+      }
+    return acc;
+  }
   if (nmfFast() || u_codec == 4) {
     float fx = x - 0.5, fy = y - 0.5;
     float x0 = floor(fx), y0 = floor(fy);

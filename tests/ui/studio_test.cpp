@@ -170,6 +170,49 @@ TEST(Studio, TheTensorGlslDecoderMatchesTheCpuWithEitherTable) {
   }
 }
 
+// The neural GLSL decoder (continuous in direction, no interpolation between the set's) against
+// the CPU decoder on random lookups: the default encoding (fourier) and, on a pyramid, halfdiff
+// with three hidden layers — every level and the CPU's level choice.
+TEST(Studio, TheNeuralGlslDecoderMatchesTheCpu) {
+  const auto dir = tempDir("ui_studio_neural");
+  const std::string raw = (dir / "b.btf").string(), f = (dir / "f.cbtf").string(),
+                    h = (dir / "h.cbtf").string();
+  std::string out;
+  ASSERT_EQ(runBtfsim("simulate " + sceneFile("brick") + " -o " + raw +
+                          " --texels 8 --dirs 4x8 --spp 1 -q",
+                      &out),
+            0)
+      << out;
+  ASSERT_EQ(runBtfsim("compress " + raw + " -o " + f + " --codec neural --neural-steps 200 -q",
+                      &out),
+            0)
+      << out;
+  ASSERT_EQ(runBtfsim("compress " + raw + " -o " + h +
+                          " --codec neural --neural-steps 200 --encoding halfdiff "
+                          "--hidden 24 --hidden-layers 3 --mip -q",
+                      &out),
+            0)
+      << out;
+  json a = json::array();
+  for (const auto& [file, name] : {std::pair{f, "f"}, std::pair{h, "h"}}) {
+    a.push_back({{"open_compressed", file}, {"reference", raw}});
+    a.push_back({{"check_glsl", {{"samples", 512}, {"tolerance", 2e-3}, {"name", name}}}});
+  }
+  a.push_back({{"report", (dir / "report.json").string()}});
+  std::string log;
+  ASSERT_EQ(runStudio(a, dir, &log), 0) << log;
+  const json r = json::parse(readFile(dir / "report.json"));
+  for (const char* name : {"f", "h"}) {
+    const json g = r.at("check_glsl_" + std::string(name));
+    EXPECT_EQ(g["samples"], 512);
+    EXPECT_GT(g["peak"].get<double>(), 0.01) << g.dump();
+    EXPECT_LE(g["max_rel_to_peak"].get<double>(), 2e-3) << g.dump();
+  }
+  const json gh = r.at("check_glsl_h");
+  EXPECT_GE(gh["levels"].get<int>(), 3) << gh.dump();
+  EXPECT_LE(gh["max_lod_difference"].get<double>(), 1e-3) << gh.dump();
+}
+
 TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   const auto dir = tempDir("ui_studio_jobs");
   const std::string out = (dir / "brick").string();

@@ -4,6 +4,7 @@
 // checkGlsl() renders the same decoder into a float framebuffer for comparison with the CPU.
 #include <btf/compress/mip.h>
 #include <btf/core/error.h>
+#include <btf/core/format.h>
 #include <btf/core/rng.h>
 #include <btf/directions/direction_set.h>
 #include <btf/io/image_io.h>
@@ -39,9 +40,22 @@ std::string decoderFragment(std::initializer_list<const char*> pieces) {
 void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
   ObjectState& o = app.obj;
   const CompressedBtf& c = *app.insp.cbtf;
-  if (c.codec == "neural")
-    throw Error("the GPU object view has no neural decoder yet (docs/compression.md, "
-                "\"neural\"): use Render on CPU, or btfsim render");
+  // neural: the network's shape from the file's params (the CPU decoder validated them).
+  std::vector<int> nnSizes;
+  int nnEnc = 0;
+  if (c.codec == "neural") {
+    const json p = json::parse(c.paramsJson);
+    const std::string enc = p.at("encoding").get<std::string>();
+    nnEnc = enc == "raw" ? 0 : enc == "halfdiff" ? 1 : 2;
+    const int hidden = p.at("hidden").get<int>(), layers = p.at("hidden_layers").get<int>();
+    if (hidden > 128)
+      throw Error(format("the GLSL neural decoder handles hidden layers of up to 128 units; this "
+                         "file's have %d: use Render on CPU, or btfsim render",
+                         hidden));
+    nnSizes.push_back(p.at("latent").get<int>() + (nnEnc == 0 ? 6 : nnEnc == 1 ? 12 : 36));
+    for (int i = 0; i < layers; ++i) nnSizes.push_back(hidden);
+    nnSizes.push_back(3);
+  }
   if (o.bound != app.insp.compressed) {
     o.buffers.clear();
     auto addData = [&](const float* data, size_t n, bool half) {
@@ -76,6 +90,9 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
       } else if (c.codec == "tensor") {
         for (const char* w : {"view", "light", "core"}) add(channelArray(ch, w));
         addData(tables.clusters[ch].data(), tables.clusters[ch].size(), false);
+      } else if (c.codec == "neural") {
+        for (const char* w : {"neural.weights", "neural.latents", "neural.gain", "none"})
+          add(ch == 0 ? w : "none");
       } else {
         add(channelArray(ch, "basis"));
         add(channelArray(ch, "coef"));
@@ -111,7 +128,7 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
       c0[ch] = int(c.array(channelArray(ch, "basis_view")).cols);
       c1[ch] = int(c.array(channelArray(ch, "basis_light")).cols);
       k[ch] = c0[ch] > 0 ? int(c.array(channelArray(ch, "coef_view")).cols / c0[ch]) : 0;
-    } else if (c.codec != "tensor") {
+    } else if (c.codec != "tensor" && c.codec != "neural") {
       c0[ch] = int(c.array(channelArray(ch, "basis")).cols);
     }
   }
@@ -123,7 +140,23 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
                     : c.codec == "perview" ? 2
                     : c.codec == "lpca"    ? 3
                                            : 4;
-  prog.set("u_codec", codec);
+  prog.set("u_codec", c.codec == "neural" ? 5 : codec);
+  if (c.codec == "neural") {
+    int sizes[10] = {}, wOff[9] = {}, bOff[9] = {};
+    int64_t off = 0;
+    for (size_t l = 0; l + 1 < nnSizes.size(); ++l) {
+      wOff[l] = int(off);
+      off += int64_t(nnSizes[l]) * nnSizes[l + 1];
+      bOff[l] = int(off);
+      off += nnSizes[l + 1];
+    }
+    for (size_t l = 0; l < nnSizes.size(); ++l) sizes[l] = nnSizes[l];
+    prog.set("u_nnLayers", int(nnSizes.size()) - 1);
+    prog.setInts("u_nnSize", sizes, 10);
+    prog.setInts("u_nnW", wOff, 9);
+    prog.setInts("u_nnB", bOff, 9);
+    prog.set("u_nnEnc", nnEnc);
+  }
   prog.set("u_ycc", c.colour == "ycc" ? 1 : 0);
   prog.set("u_nu", c.info.nu);
   prog.set("u_nv", c.info.nv);

@@ -2,6 +2,8 @@
 
 #include <btf/compress/mip.h>
 #include <btf/core/error.h>
+#include <btf/core/format.h>
+#include <btf/core/math.h>
 #include <btf/core/rng.h>
 #include <btf/directions/direction_set.h>
 
@@ -229,6 +231,44 @@ std::array<float, 3> Decoder::evaluateAt(double x, double y, double thetaI, doub
 
 namespace {
 
+class ResampledDecoder final : public Decoder {
+ public:
+  ResampledDecoder(std::shared_ptr<const Decoder> d, const BtfInfo& target)
+      : Decoder(withDirections(d->info(), target)), m_d(std::move(d)) {
+    for (const auto& a : m_info.dirsDeg) m_rad.push_back({deg2rad(a[0]), deg2rad(a[1])});
+  }
+  void texel(int64_t t, float* out) const override {
+    const int n = m_info.nDirs();
+    for (int v = 0; v < n; ++v)
+      for (int l = 0; l < n; ++l) {
+        const auto x = value(t, v, l);
+        std::copy(x.begin(), x.end(), out + (size_t(v) * size_t(n) + size_t(l)) * 3);
+      }
+  }
+  std::array<float, 3> value(int64_t t, int view, int light) const override {
+    const auto& o = m_rad[size_t(view)];
+    const auto& i = m_rad[size_t(light)];
+    return m_d->evaluate(t, i[0], i[1], o[0], o[1]);
+  }
+  std::array<float, 3> evaluate(int64_t t, double thetaI, double phiI, double thetaO,
+                                double phiO) const override {
+    return m_d->evaluate(t, thetaI, phiI, thetaO, phiO);
+  }
+  bool continuous() const override { return m_d->continuous(); }
+  std::string kind() const override { return m_d->kind(); }
+
+ private:
+  static BtfInfo withDirections(BtfInfo i, const BtfInfo& target) {
+    if (i.nu != target.nu || i.nv != target.nv)
+      throw Error(format("texel grids differ (%d×%d vs %d×%d)", i.nu, i.nv, target.nu, target.nv));
+    i.directionSet = target.directionSet;
+    i.dirsDeg = target.dirsDeg;
+    return i;
+  }
+  std::shared_ptr<const Decoder> m_d;
+  std::vector<std::array<double, 2>> m_rad;
+};
+
 class RawDecoder final : public Decoder {
  public:
   explicit RawDecoder(std::unique_ptr<BtfReader> r)
@@ -272,6 +312,10 @@ class RawDecoder final : public Decoder {
 std::unique_ptr<Decoder> openBtf(const std::string& path) {
   if (isCompressedFile(path)) return makeDecoder(readCompressed(path));
   return std::make_unique<RawDecoder>(std::make_unique<BtfReader>(path));
+}
+
+std::unique_ptr<Decoder> atDirections(std::shared_ptr<const Decoder> d, const BtfInfo& target) {
+  return std::make_unique<ResampledDecoder>(std::move(d), target);
 }
 
 }  // namespace btf

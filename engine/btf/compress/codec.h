@@ -178,6 +178,12 @@ class Decoder {
 
 std::unique_ptr<Decoder> makeDecoder(CompressedBtf c);
 
+/// `d` presented at another direction set (`target`'s, same texels): every value is
+/// d.evaluate() at the target's pair — the codec's own continuous decode (neural), else
+/// interpolation between d's set directions. What `compare` uses to measure a file between its
+/// set directions against a simulation at other directions.
+std::unique_ptr<Decoder> atDirections(std::shared_ptr<const Decoder> d, const BtfInfo& target);
+
 /// What a GLSL tensor decoder needs beside the file's arrays (shaders/btf_decode.glsl), derived
 /// from them as the CPU decoder does: per texel (cluster, offset of its coefficients, offset of
 /// its Rv × Rl matrices in `matrices` or −1), per channel and cluster 7 floats (Rv, Rl, Rt, offsets

@@ -131,9 +131,12 @@ Opts effectOptions() {
 Opts codecOptions(bool withName) {
   Opts o;
   if (withName)
-    o.push_back(en("codec", "nmf", {"nmf", "svd", "perview", "lpca", "tensor", "neural"},
-                   "nmf (per-texel NMF + PCA), svd, perview, lpca, tensor (clustered Tucker) or "
-                   "neural (latent texels + a shared decoder network)"));
+    // The default is the codec that wins at 1:300 on the resource scenes against converged
+    // references (docs/performance.md, "The neural codec against the factorisation codecs").
+    o.push_back(en("codec", "tensor", {"nmf", "svd", "perview", "lpca", "tensor", "neural"},
+                   "tensor (clustered Tucker; the default: the most accurate at 1:300 measured), "
+                   "nmf (per-texel NMF + PCA), svd, perview, lpca or neural (latent texels + a "
+                   "shared decoder network)"));
   append(o, {
                 en("colour_model", "ycc", {"ycc", "rgb"},
                    "rgb or ycc (luminance + two chroma channels)"),
@@ -215,7 +218,9 @@ std::vector<CommandDecl> build() {
   {
     CommandDecl c{"compare", "error between two BTFs (raw or compressed)", {}, {"a", "b"}, {}};
     c.options = {path("a", "reference BTF (.btf or .cbtf)"),
-                 path("b", "BTF to measure"),
+                 path("b",
+                      "BTF to measure (same texels; another direction set is evaluated at A's "
+                      "directions: continuous for neural, else interpolated)"),
                  str("maps", "", "folder for per-texel and per-direction error maps"),
                  str("noise", "",
                      "a second, independent simulation of A (another --seed): reports A's own "

@@ -181,6 +181,13 @@ void compare(const Call& c) {
     A = openBtfLevel(r.s("a"), level, budget, c.progress(), c.ctx.cancel);
     B = openBtfLevel(r.s("b"), level, budget, c.progress(), c.ctx.cancel);
   });
+  // B at A's directions when the sets differ: B's own continuous decode (neural) or its
+  // interpolation between its set directions — the error between set directions.
+  std::string resampled;
+  if (A->info().dirsDeg != B->info().dirsDeg) {
+    resampled = B->continuous() ? "continuous" : "interpolated";
+    B = atDirections(std::shared_ptr<const Decoder>(std::move(B)), A->info());
+  }
   const ErrorReport e = compareBtfs(*A, *B, c.progress(), r.i("worst"), c.ctx.cancel, &comm);
   if (!r.s("maps").empty() && comm.root()) writeErrorMaps(e, r.s("maps"));
   auto ratioOf = [](const std::string& p) {
@@ -193,8 +200,14 @@ void compare(const Call& c) {
   res.a = {r.s("a"), A->kind(), ratioA};
   res.b = {r.s("b"), B->kind(), ratioB};
   res.maps = r.s("maps");
+  res.bAtADirections = resampled;
   std::string t = format("A %s (%s, ratio 1:%.0f)\nB %s (%s, ratio 1:%.0f)\n", r.s("a").c_str(),
                          A->kind().c_str(), ratioA, r.s("b").c_str(), B->kind().c_str(), ratioB);
+  if (!resampled.empty())
+    t += format("B evaluated at A's %d directions (%s): %s\n", A->info().nDirs(),
+                A->info().directionSet.c_str(),
+                resampled == "continuous" ? "its own continuous decode"
+                                          : "interpolated between its set directions");
   if (level > 0) t += format("texel level %d: %d x %d texels\n", level, A->info().nu, A->info().nv);
   t += errorText(e) + "\n";
   if (!r.s("noise").empty()) {

@@ -123,6 +123,7 @@ Json json(const CompareResult& r) {
   j["a"] = {{"path", r.a.path}, {"kind", r.a.kind}, {"ratio", r.a.ratio}};
   j["b"] = {{"path", r.b.path}, {"kind", r.b.kind}, {"ratio", r.b.ratio}};
   if (!r.maps.empty()) j["maps"] = r.maps;
+  if (!r.bAtADirections.empty()) j["b_at_a_directions"] = r.bAtADirections;
   if (r.noise)
     j["noise"] = {{"path", r.noise->path},
                   {"floor_rmse", r.noise->floorRmse},

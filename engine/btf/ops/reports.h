@@ -111,6 +111,9 @@ struct CompareResult {
   };
   Side a, b;
   std::string maps;  // empty: none written
+  /// Non-empty when A and B have different direction sets: B was evaluated at A's directions,
+  /// "continuous" (its codec's own decode) or "interpolated" (between its set directions).
+  std::string bAtADirections;
   /// --noise: A's own noise floor and B's error in excess of it.
   struct Noise {
     std::string path;

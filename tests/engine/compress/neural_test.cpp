@@ -7,6 +7,7 @@
 #include <btf/core/run_context.h>
 #include <btf/directions/direction_set.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <tbb/task_arena.h>
 
 #include <cmath>
@@ -114,6 +115,37 @@ TEST(Neural, OneAnalyticBrdfDecodedBetweenTheSetsDirectionsMatchesTheClosedForm)
   const auto a = dec->value(4, 10, 30);
   const auto b = dec->evaluate(4, ds[30].theta, ds[30].phi, ds[10].theta, ds[10].phi);
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[size_t(c)], b[size_t(c)], 1e-5f);
+}
+
+// `compare` against a BTF at another direction set evaluates the file at the reference's
+// directions: the neural file (trained at 6×12) within 2 % of the closed form at 5×10 — none of
+// whose directions is one of 6×12's — and says so; the same values at the file's own set agree.
+TEST(Neural, CompareAtAnotherDirectionSetEvaluatesTheFileThere) {
+  const BtfInfo info = syntheticInfo(3, 3, "6x12"), other = syntheticInfo(3, 3, "5x10");
+  const auto dir = test::tempDir("neural_sets");  // one folder: tempDir empties it
+  const std::string raw = writeRaw((dir / "set.btf").string(), info, analyticValues(info, true));
+  const std::string off =
+      writeRaw((dir / "off.btf").string(), other, analyticValues(other, true));
+  const std::string file = (dir / "set.cbtf").string();
+  writeCompressed(file, compressStore(raw, neural(1500), false, nullptr, nullptr));
+  std::string out;
+  ASSERT_EQ(runBtfsim("compare " + off + " " + file + " --json -q", &out), 0) << out;
+  const auto j = nlohmann::json::parse(out.substr(out.find('{')));
+  EXPECT_EQ(j.at("b_at_a_directions"), "continuous") << out;
+  EXPECT_EQ(j.at("values").get<int64_t>(), int64_t(9) * 50 * 50 * 3) << out;
+  EXPECT_LT(j.at("relative_rmse").get<double>(), 0.02) << out;
+  ASSERT_EQ(runBtfsim("compare " + raw + " " + file + " --json -q", &out), 0) << out;
+  EXPECT_FALSE(nlohmann::json::parse(out.substr(out.find('{'))).contains("b_at_a_directions"));
+  // A raw store at another set is interpolated, and said to be.
+  ASSERT_EQ(runBtfsim("compare " + off + " " + raw + " --json -q", &out), 0) << out;
+  EXPECT_EQ(nlohmann::json::parse(out.substr(out.find('{'))).at("b_at_a_directions"),
+            "interpolated");
+  // Other texel grids are still refused.
+  const BtfInfo grid = syntheticInfo(2, 3, "5x10");
+  const std::string small =
+      writeRaw((dir / "small.btf").string(), grid, analyticValues(grid, true));
+  EXPECT_NE(runBtfsim("compare " + small + " " + file + " -q", &out), 0);
+  EXPECT_NE(out.find("texel grids differ"), std::string::npos) << out;
 }
 
 TEST(Neural, SameRequestWritesTheSameBytesWithAnyThreadCount) {
