@@ -23,11 +23,12 @@ TEST(BtfsimCompress, StreamedSimulationEqualsCompressingTheStoredBtf) {
   std::string out;
   ASSERT_EQ(test::runBtfsim("simulate " + common + " -o " + (dir / "a.btf").string(), &out), 0)
       << out;
-  for (const std::string codec : {"nmf", "svd", "tensor"}) {
+  for (const std::string codec : {"nmf", "svd", "tensor", "neural"}) {
+    const std::string extra = codec == "neural" ? " --neural-steps 100" : "";
     const std::string file = (dir / (codec + "_file.cbtf")).string();
     const std::string streamed = (dir / (codec + "_stream.cbtf")).string();
     ASSERT_EQ(test::runBtfsim("compress " + (dir / "a.btf").string() + " -o " + file + " --codec " +
-                                  codec + " --train-texels 20 --json -q --compare",
+                                  codec + extra + " --train-texels 20 --json -q --compare",
                               &out),
               0)
         << out;
@@ -37,7 +38,7 @@ TEST(BtfsimCompress, StreamedSimulationEqualsCompressingTheStoredBtf) {
     EXPECT_GT(rel, 0.0);
     EXPECT_LT(rel, 1.0);
     ASSERT_EQ(test::runBtfsim("simulate " + common + " -o " + streamed + " --compress " + codec +
-                                  " --train-texels 20",
+                                  extra + " --train-texels 20",
                               &out),
               0)
         << out;

@@ -1,7 +1,8 @@
 // The neural codec (codec_neural.cpp) on constructed BTFs with known values: texels drawn from a
 // few analytic BRDFs reconstruct within 1 %, one analytic BRDF decoded between the set's
 // directions matches the closed form, the same request writes the same bytes with any thread
-// count, damaged tables are refused naming the field, a cancelled training leaves nothing.
+// count, damaged tables are refused naming the field, a cancelled or killed training leaves
+// nothing, and `compare` against another direction set evaluates the file at its directions.
 #include <btf/compress/compress.h>
 #include <btf/core/error.h>
 #include <btf/core/run_context.h>
@@ -146,6 +147,27 @@ TEST(Neural, CompareAtAnotherDirectionSetEvaluatesTheFileThere) {
       writeRaw((dir / "small.btf").string(), grid, analyticValues(grid, true));
   EXPECT_NE(runBtfsim("compare " + small + " " + file + " -q", &out), 0);
   EXPECT_NE(out.find("texel grids differ"), std::string::npos) << out;
+}
+
+// A training run killed (SIGKILL: no handler runs) leaves no file that could pass for a finished
+// one, and the same command run again writes a whole, readable file.
+TEST(Neural, AKilledTrainingLeavesNoFileAndARerunFinishes) {
+  const BtfInfo info = syntheticInfo(4, 4, "4x8");
+  const auto dir = test::tempDir("neural_kill");
+  const std::string raw = writeRaw((dir / "a.btf").string(), info, analyticValues(info, false));
+  const std::string file = (dir / "a.cbtf").string();
+  std::string out;
+  EXPECT_EQ(runBtfsim("compress " + raw + " -o " + file + " --codec neural --neural-steps 1000000",
+                      &out, "timeout -s KILL 2"),
+            137)
+      << out;
+  EXPECT_FALSE(std::filesystem::exists(file));
+  ASSERT_EQ(runBtfsim("compress " + raw + " -o " + file + " --codec neural --neural-steps 100 -q",
+                      &out),
+            0)
+      << out;
+  EXPECT_FALSE(std::filesystem::exists(file + ".partial"));
+  EXPECT_EQ(makeDecoder(readCompressed(file))->kind(), "neural");
 }
 
 TEST(Neural, SameRequestWritesTheSameBytesWithAnyThreadCount) {
