@@ -6,7 +6,7 @@ PKGS=(cmake ninja-build g++ make pkg-config libglfw3-dev libglm-dev libimgui-dev
   libopenmesh-dev libopenimageio-dev libosd-dev libgtest-dev libbenchmark-dev libeigen3-dev
   libtbb-dev libcli11-dev nlohmann-json3-dev xvfb xauth libgl1-mesa-dri mesa-utils libegl1
   libegl-mesa0 fonts-dejavu-core libopenmpi-dev openmpi-bin libzip-dev libpolyclipping-dev
-  pybind11-dev python3-dev python3-numpy python3-pytest python3-venv libllvm19)
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-venv libllvm19 zlib1g-dev)
 # `install-deps.sh fuzz`: also clang and its libFuzzer runtime (make fuzz only).
 if [ "${1:-}" = "fuzz" ]; then PKGS+=(clang-14 libclang-rt-14-dev); fi
 missing=()

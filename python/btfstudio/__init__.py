@@ -105,8 +105,9 @@ class Btf:
                               np.atleast_2d(np.asarray(wo, dtype=np.float64)), level)
 
     def vmf(self) -> Optional[np.ndarray]:
-        """The visibility map of a raw store: [direction, v, u, (coverage, mean depth)], or None
-        (a .cbtf holds none yet; a flat tile needs none)."""
+        """The visibility map: [direction, v, u, (coverage, mean depth)] — a raw store's, or the
+        one a .cbtf carries (coverage and depth coded in 8 bits); None for a flat tile (it needs
+        none) or a .cbtf written before files carried it."""
         return self._b.vmf()
 
 

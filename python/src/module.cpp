@@ -61,6 +61,7 @@ class PyBtf {
         CompressedBtf c = readCompressed(m_path);
         m_pyramid = int(c.levels.size());
         m_codec = c.codec;
+        m_vmf = c.vmf();  // its own visibility map (8-bit coded), when it carries one
       }
       m_levels.resize(1);
       m_levels[0] = openBtfLevel(m_path, 0, m_budget);
@@ -196,11 +197,18 @@ class PyBtf {
     return out;
   }
 
-  // The raw store's visibility map: directions × nv × nu × (coverage, mean depth), rows bottom
-  // first as the store; None for a .cbtf (it holds none) or a flat tile.
+  // The visibility map: directions × nv × nu × (coverage, mean depth), rows bottom first as the
+  // store — a raw store's, or the one a .cbtf carries (8-bit coded); None for a flat tile or a
+  // .cbtf written before the files carried it.
   py::object vmf() {
-    if (!m_reader || !info().hasVmf) return py::none();
     const BtfInfo& I = info();
+    if (m_compressed) {
+      if (m_vmf.empty()) return py::none();
+      py::array_t<float> a({I.nDirs(), I.nv, I.nu, 2});
+      std::memcpy(a.mutable_data(), m_vmf.data(), m_vmf.size() * sizeof(float));
+      return py::object(std::move(a));
+    }
+    if (!m_reader || !I.hasVmf) return py::none();
     py::array_t<float> a({I.nDirs(), I.nv, I.nu, 2});
     float* o = a.mutable_data();
     released([&] {
@@ -227,6 +235,7 @@ class PyBtf {
   std::mutex m_mutex;
   std::vector<std::shared_ptr<const Decoder>> m_levels;
   std::unique_ptr<BtfReader> m_reader;
+  std::vector<float> m_vmf;  // a .cbtf's decoded visibility map
   std::vector<std::unique_ptr<std::vector<float>>> m_dense;
 };
 

@@ -89,7 +89,14 @@ def test_visibility_map_of_a_raw_store(files):
     m = b.vmf()
     assert m.shape == (32, 6, 8, 2)
     assert np.all((m[..., 0] >= 0) & (m[..., 0] <= 1))
-    assert btfstudio.open(files["nmf"]).vmf() is None
+    # The .cbtf carries the same map in 8 bits: coverage within 1/510, depth within 1/510 of
+    # the depth range (and never outside it).
+    c = btfstudio.open(files["nmf"]).vmf()
+    assert c.shape == m.shape
+    assert np.max(np.abs(c[..., 0] - m[..., 0])) <= 1 / 510 + 1e-6
+    lo, hi = m[..., 1].min(), m[..., 1].max()
+    assert np.max(np.abs(c[..., 1] - m[..., 1])) <= (hi - lo) / 510 + 1e-6
+    assert c[..., 1].min() >= lo - 1e-6 and c[..., 1].max() <= hi + 1e-6
 
 
 def test_bad_arguments_raise_with_the_reason(files):

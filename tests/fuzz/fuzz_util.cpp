@@ -139,6 +139,22 @@ void repairCbtf(std::string& b) {
     }
     b.replace(container::kPreambleBytes, header.size(), header);
   }
+  if (!j.is_discarded() && j.is_object() && j.contains("vmf") && j["vmf"].is_object()) {
+    // The visibility map's block (written before "arrays" in the header), patched likewise.
+    const auto& v = j["vmf"];
+    size_t at = header.find("\"vmf\"");
+    if (at != std::string::npos) at = header.find("\"checksum\"", at);
+    if (at != std::string::npos) at = header.find('"', at + 10);
+    if (at != std::string::npos && at + 17 <= header.size() && v.contains("offset") &&
+        v.contains("bytes") && v["offset"].is_number_unsigned() && v["bytes"].is_number_unsigned()) {
+      ++at;
+      const uint64_t off = v["offset"], n = v["bytes"];
+      if (off <= b.size() && n <= b.size() - off &&
+          std::isxdigit(static_cast<unsigned char>(header[at])))
+        header.replace(at, 16, hex64(checksum64(b.data() + off, n)));
+      b.replace(container::kPreambleBytes, header.size(), header);
+    }
+  }
   put64(b, 16, checksum64(header));
 }
 

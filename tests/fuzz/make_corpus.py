@@ -374,6 +374,14 @@ def btfs(btfsim, tmp):
         ccrafted(codec + "_array_shapes.cbtf", shrink, src)
         ccrafted(codec + "_missing_array.cbtf", lambda j: j["arrays"].pop(), src)
     regression("cbtf", "raw_header_in_cbtf.cbtf", b"BTFCOMP1" + b[8:])
+    # The visibility map a .cbtf carries: a grid or direction count unlike the file's, a block
+    # past the end, a range upside down, a block that does not inflate to the map.
+    ccrafted("vmf_directions.cbtf", lambda j: j["vmf"].update(directions=99))
+    ccrafted("vmf_texels.cbtf", lambda j: j["vmf"].update(texels=[16384, 16384]))
+    ccrafted("vmf_past_end.cbtf", lambda j: j["vmf"].update(offset=j["vmf"]["offset"] + 100000))
+    ccrafted("vmf_range.cbtf", lambda j: j["vmf"].update(depth_range=[1, -1]))
+    ccrafted("vmf_coder.cbtf", lambda j: j["vmf"].update(coder="lzma"))
+    ccrafted("vmf_short_block.cbtf", lambda j: j["vmf"].update(bytes=3))
     # Pyramids whose level table does not follow from the texel grid.
     msrc = split(os.path.join(tmp, "mip.cbtf"))
     ccrafted("mip_wrong_level.cbtf", lambda j: j["levels"][1].update(texels=[9, 9]), msrc)

@@ -209,12 +209,18 @@ bool ensureShell(const ObjectView& app) {
                          tile.geometry.zmin, tile.geometry.zmax,
                          viewerRenderSettings(o, o.radius, 64, 64));
     VmfTable v;
-    if (!tile.flat) {
+    if (!tile.flat && c.hasVmf()) {
+      // The file's own visibility map (every .cbtf written since 2026-12-07 carries it).
+      v.nu = c.info.nu, v.nv = c.info.nv, v.nDirs = c.info.nDirs();
+      v.map = c.vmf();
+      const DirectionSet set = DirectionSet::fromName(c.info.directionSet);
+      for (int d = 0; d < set.size(); ++d) v.dirZ.push_back(float(set[d].w.z));
+    } else if (!tile.flat) {
       if (app.insp.reference.empty())
         throw Error(
-            "the mapped view needs the visibility map of the raw store this BTF was "
-            "compressed from: open the .cbtf with its reference (Inspector), or simulate with "
-            "--vmf on");
+            "the mapped view needs a visibility map and this .cbtf carries none (written "
+            "before files carried theirs): compress it again, or open it with the raw store it "
+            "was compressed from as its reference (Inspector)");
       v = readVmfTable(app.insp.reference, c.info, app.insp.compressed);
     }
     o.shell = rs.gpuTables();

@@ -8,7 +8,9 @@
 #include <btf/core/json_limits.h>
 #include <fcntl.h>
 #include <unistd.h>
+#include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -55,7 +57,7 @@ Layout layoutOf(const CompressedBtf& c, const std::vector<std::vector<uint8_t>>&
   // Offsets depend on the header length, which contains them: iterate to a fixed point (the
   // header only grows by digits, so two or three passes settle it).
   Layout L;
-  L.offsets.assign(c.arrays.size(), 0);
+  L.offsets.assign(bytes.size(), 0);
   for (int pass = 0; pass < 8; ++pass) {
     nlohmann::ordered_json j;
     j["format"] = "btfstudio-compressed-btf";
@@ -72,6 +74,16 @@ Layout layoutOf(const CompressedBtf& c, const std::vector<std::vector<uint8_t>>&
       j["levels"] = lv;
     }
     nlohmann::ordered_json arr = nlohmann::ordered_json::array();
+    if (c.hasVmf()) {
+      const size_t i = c.arrays.size();  // the map's block follows the arrays
+      j["vmf"] = {{"coder", "u8-planes-deflate"},
+                  {"directions", c.info.nDirs()},
+                  {"texels", {c.info.nu, c.info.nv}},
+                  {"depth_range", {c.vmfDepth[0], c.vmfDepth[1]}},
+                  {"offset", L.offsets[i]},
+                  {"bytes", bytes[i].size()},
+                  {"checksum", hex64(checksum64(bytes[i].data(), bytes[i].size()))}};
+    }
     for (size_t i = 0; i < c.arrays.size(); ++i) {
       const CArray& a = c.arrays[i];
       nlohmann::ordered_json e;
@@ -92,8 +104,7 @@ Layout layoutOf(const CompressedBtf& c, const std::vector<std::vector<uint8_t>>&
       offsets.push_back(off);
       off = alignUp(off + b.size(), 64);
     }
-    const uint64_t total =
-        c.arrays.empty() ? 24 + header.size() : offsets.back() + bytes.back().size();
+    const uint64_t total = bytes.empty() ? 24 + header.size() : offsets.back() + bytes.back().size();
     if (offsets == L.offsets && header == L.header) break;
     L.offsets = offsets;
     L.header = header;
@@ -144,7 +155,66 @@ uint64_t CompressedBtf::payloadBytes() const {
 uint64_t CompressedBtf::fileBytes() const {
   std::vector<std::vector<uint8_t>> bytes;
   for (const auto& a : arrays) bytes.emplace_back(a.storedBytes());  // sizes only matter
+  if (hasVmf()) bytes.push_back(vmfCoded);
   return layoutOf(*this, bytes).total;
+}
+
+void CompressedBtf::setVmf(const std::vector<float>& vmf) {
+  vmfCoded.clear();
+  vmfDepth[0] = vmfDepth[1] = 0;
+  if (vmf.empty()) return;
+  const size_t n = vmf.size() / 2;
+  if (vmf.size() != size_t(info.nDirs()) * size_t(info.texels()) * 2)
+    throw Error(format("visibility map of %zu values for %d directions × %lld texels", vmf.size(),
+                       info.nDirs(), (long long)info.texels()));
+  float lo = 0, hi = 0;
+  bool any = false;
+  for (size_t k = 0; k < n; ++k) {
+    const float d = vmf[2 * k + 1];
+    if (!std::isfinite(d)) continue;
+    lo = any ? std::min(lo, d) : d;
+    hi = any ? std::max(hi, d) : d;
+    any = true;
+  }
+  // Two planes (coverage, then depth) of 8-bit codes: each plane is smooth over directions and
+  // texels, which deflate exploits; a depth is lo + q/255·(hi − lo), off by ≤ (hi − lo)/510.
+  std::vector<uint8_t> planes(2 * n);
+  for (size_t k = 0; k < n; ++k) {
+    const float c = vmf[2 * k], d = vmf[2 * k + 1];
+    planes[k] = uint8_t(std::lround(255.0 * std::clamp(std::isfinite(c) ? double(c) : 0.0, 0.0, 1.0)));
+    const double f = hi > lo && std::isfinite(d) ? (double(d) - lo) / (double(hi) - lo) : 0.0;
+    planes[n + k] = uint8_t(std::lround(255.0 * std::clamp(f, 0.0, 1.0)));
+  }
+  uLongf len = compressBound(uLong(planes.size()));
+  vmfCoded.resize(len);
+  if (compress2(vmfCoded.data(), &len, planes.data(), uLong(planes.size()), 9) != Z_OK)
+    throw Error("visibility map: deflate failed");
+  vmfCoded.resize(len);
+  vmfDepth[0] = lo, vmfDepth[1] = hi;
+}
+
+std::vector<float> CompressedBtf::vmf() const {
+  if (vmfCoded.empty()) return {};
+  const std::string where = (source.empty() ? std::string("compressed BTF") : source) + ": vmf";
+  const uint64_t n = uint64_t(info.nDirs()) * uint64_t(info.texels());
+  // Deflate's best ratio is about 1032:1: a larger claim is a damaged header, not a map.
+  if (2 * n > 1100 * uint64_t(vmfCoded.size()) + 4096)
+    throw Error(format("%s: %llu coded bytes cannot hold %d directions × %lld texels", where.c_str(),
+                       (unsigned long long)vmfCoded.size(), info.nDirs(),
+                       (long long)info.texels()));
+  std::vector<uint8_t> planes(size_t(2 * n));
+  uLongf len = uLongf(planes.size());
+  if (uncompress(planes.data(), &len, vmfCoded.data(), uLong(vmfCoded.size())) != Z_OK ||
+      len != planes.size())
+    throw Error(where + ": the coded map does not inflate to its " + std::to_string(2 * n) +
+                " bytes (corrupt)");
+  std::vector<float> out(size_t(2 * n));
+  const double lo = vmfDepth[0], step = (double(vmfDepth[1]) - lo) / 255.0;
+  for (size_t k = 0; k < size_t(n); ++k) {
+    out[2 * k] = float(planes[k] / 255.0);
+    out[2 * k + 1] = float(lo + step * planes[size_t(n) + k]);
+  }
+  return out;
 }
 
 double CompressedBtf::ratio() const {
@@ -159,6 +229,7 @@ void writeCompressed(const std::string& path, const CompressedBtf& c) {
       throw Error("compressed BTF: array '" + a.name + "' has the wrong size");
     bytes.push_back(encodeArray(a));
   }
+  if (c.hasVmf()) bytes.push_back(c.vmfCoded);
   const Layout L = layoutOf(c, bytes);
   const std::string partial = path + ".partial";
   const int fd = ::open(partial.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -304,6 +375,36 @@ CompressedBtf readCompressed(const std::string& path) {
     }
     end = std::max(end, off + bytes);
     c.arrays.push_back(std::move(a));
+  }
+  if (j.contains("vmf")) {
+    // The visibility map: its grid must be the file's level 0; decoded once here to validate.
+    if (h.string("/vmf/coder") != "u8-planes-deflate")
+      h.fail("/vmf/coder", "must be u8-planes-deflate");
+    if (h.integer("/vmf/directions", 0, 1 << 30) != c.info.nDirs())
+      h.fail("/vmf/directions", "must be the file's " + std::to_string(c.info.nDirs()));
+    if (h.integer("/vmf/texels/0", 0, 1 << 30) != c.info.nu ||
+        h.integer("/vmf/texels/1", 0, 1 << 30) != c.info.nv)
+      h.fail("/vmf/texels", format("must be the file's %d×%d", c.info.nu, c.info.nv));
+    const auto& range = h.at("/vmf/depth_range");
+    if (!range.is_array() || range.size() != 2 || !range[0].is_number() || !range[1].is_number())
+      h.fail("/vmf/depth_range", "must be two numbers");
+    c.vmfDepth[0] = range[0].get<float>(), c.vmfDepth[1] = range[1].get<float>();
+    if (!std::isfinite(c.vmfDepth[0]) || !std::isfinite(c.vmfDepth[1]) ||
+        c.vmfDepth[1] < c.vmfDepth[0])
+      h.fail("/vmf/depth_range", "must be finite, low ≤ high");
+    const uint64_t off = uint64_t(h.integer("/vmf/offset", 0, int64_t(size)));
+    const uint64_t bytes = uint64_t(h.integer("/vmf/bytes", 1, int64_t(size)));
+    if (bytes > size || off > size - bytes)
+      throw Error(path + ": truncated file (the visibility map ends at byte " +
+                  std::to_string(off + bytes) + ", the file has " + std::to_string(size) + ")");
+    c.vmfCoded.resize(bytes);
+    f.seekg(std::streamoff(off));
+    f.read(reinterpret_cast<char*>(c.vmfCoded.data()), std::streamsize(bytes));
+    if (!f) throw Error(path + ": read error in the visibility map");
+    if (hex64(checksum64(c.vmfCoded.data(), bytes)) != h.string("/vmf/checksum"))
+      throw Error(path + ": checksum mismatch in the visibility map (corrupt file)");
+    (void)c.vmf();
+    end = std::max(end, off + bytes);
   }
   if (end != size)
     throw Error(path + ": file has " + std::to_string(size - end) +

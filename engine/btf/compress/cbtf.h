@@ -40,6 +40,18 @@ struct CompressedBtf {
   /// A pyramid (`compress --mip`, docs/mip.md): mipLevels(info.nu, info.nv), whose texels the
   /// arrays code one after the other; empty for a single-level file.
   std::vector<MipLevel> levels;
+  /// The visibility map of level 0 (the raw store's: per direction, per texel u + nu·v,
+  /// coverage and mean depth), coded (docs/compression.md, "The visibility map"): coverage and
+  /// depth quantised to 8 bits (depth over [vmfDepth[0], vmfDepth[1]]), as two planes, deflated.
+  /// Empty when the source had none (a flat tile).
+  std::vector<uint8_t> vmfCoded;
+  float vmfDepth[2] = {0, 0};
+
+  /// Codes `vmf` (nDirs × texels × 2 floats) into vmfCoded.
+  void setVmf(const std::vector<float>& vmf);
+  bool hasVmf() const { return !vmfCoded.empty(); }
+  /// The decoded map (nDirs × texels × 2 floats); btf::Error when the coded bytes are damaged.
+  std::vector<float> vmf() const;
 
   const CArray& array(const std::string& name) const;
   bool hasArray(const std::string& name) const;
@@ -48,7 +60,7 @@ struct CompressedBtf {
   /// non-finite values by 0.
   void quantize();
   uint64_t payloadBytes() const;  // Σ stored array bytes
-  uint64_t fileBytes() const;     // header + alignment + arrays
+  uint64_t fileBytes() const;     // header + alignment + arrays + the visibility map
   double ratio() const;           // raw float RGB bytes (of level 0) / file bytes
 };
 

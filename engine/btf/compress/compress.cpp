@@ -104,6 +104,7 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
     return out;
   }
   r.finishSeconds = since(f0);
+  if (reader->info().hasVmf) out.setVmf(reader->readVmfAll());  // the file is self-sufficient
   finishReport(&r, out, since(start));
   if (report) *report = r;
   return out;

@@ -433,6 +433,7 @@ CompressedBtf compressPyramid(const std::string& inPath, const CodecSettings& s,
   r.finishSeconds = since(t0);
   out.info = I;
   out.levels = L;
+  if (I.hasVmf) out.setVmf(reader.readVmfAll());  // level 0's; the coarser follow (vmfLevels)
   // Each level's error against the exact level (level 0 = the store itself).
   {
     std::shared_ptr<const Decoder> dec = makeDecoder(asStrip(out));

@@ -383,8 +383,9 @@ std::vector<CommandDecl> build() {
         fl("exposure", 1, 1e-6, 1e6, "PNG: multiplies the radiance before the sRGB curve"),
         str("reference", "", "an exact render (.exr with coverage) to measure the error against"),
         str("vmf", "",
-            "a raw store of the same scene that supplies the visibility map (a .cbtf "
-            "has none)"),
+            "a raw store of the same scene whose visibility map (full precision) replaces the "
+            "8-bit one a .cbtf carries, or supplies one to a .cbtf written before files "
+            "carried theirs"),
         str("memory_budget", "8G", "memory budget (BTF values, exact triangles), e.g. 8G"),
         en("filter", "mip", {"mip", "point"},
            "flat and mapped: mip = each sample's texel level from its footprint (ray "

@@ -41,12 +41,17 @@ void warnTarget(const Call& c, const CompressedBtf& b) {
 
 std::string compressedText(const CompressedBtf& b, double seconds, uint64_t rss) {
   const double raw = double(b.info.texels()) * b.info.nDirs() * b.info.nDirs() * 12.0;
+  const double file = double(b.fileBytes()), vmf = double(b.vmfCoded.size());
+  const std::string vmfNote =
+      b.hasVmf() ? format(" (with its visibility map, %s; 1:%.0f without)",
+                          formatBytes(vmf).c_str(), raw / std::max(1.0, file - vmf))
+                 : "";
   return format(
-      "  codec %s (%s): %s -> %s, ratio 1:%.0f, %s, peak memory %s\n  settings %s\n"
+      "  codec %s (%s): %s -> %s, ratio 1:%.0f%s, %s, peak memory %s\n  settings %s\n"
       "  stats %s\n",
-      b.codec.c_str(), b.colour.c_str(), formatBytes(raw).c_str(),
-      formatBytes(double(b.fileBytes())).c_str(), b.ratio(), formatSeconds(seconds).c_str(),
-      formatBytes(double(rss)).c_str(), b.paramsJson.c_str(), b.statsJson.c_str());
+      b.codec.c_str(), b.colour.c_str(), formatBytes(raw).c_str(), formatBytes(file).c_str(),
+      b.ratio(), vmfNote.c_str(), formatSeconds(seconds).c_str(), formatBytes(double(rss)).c_str(),
+      b.paramsJson.c_str(), b.statsJson.c_str());
 }
 
 namespace {
@@ -78,6 +83,7 @@ CodecFigures codecFigures(const CompressedBtf& b, double rawBytes, uint64_t comp
   f.stats = json::parse(b.statsJson);
   f.rawBytes = rawBytes;
   f.compressedBytes = compressedBytes;
+  f.vmfBytes = b.vmfCoded.size();
   f.ratio = ratio;
   f.peakMemoryBytes = peakMemoryBytes;
   return f;

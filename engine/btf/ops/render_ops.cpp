@@ -135,8 +135,8 @@ void render(const Call& c) {
     if ((mode == "mapped" || mode == "all") && !btf->hasVmf() && !flatTile)
       throw Error(input + " has no visibility map, and the mapped mode needs one for a relief " +
                   (isCompressedFile(input)
-                       ? "(a .cbtf holds none): give the raw store it was compressed from "
-                         "with --vmf FILE.btf"
+                       ? "(this .cbtf was written before files carried theirs): compress it "
+                         "again, or give the raw store it was compressed from with --vmf FILE.btf"
                        : "(it was simulated with --vmf off): simulate it again with --vmf on"));
   }
   const RenderScene rs(makeObject(r.s("object"), r.i("level")), tile.Lx, tile.Ly, tile.zmin,

@@ -21,6 +21,7 @@ void put(Json& j, const CodecFigures& f) {
 void putSizes(Json& j, const CodecFigures& f) {
   j["raw_bytes"] = f.rawBytes;
   j["compressed_bytes"] = f.compressedBytes;
+  j["vmf_bytes"] = f.vmfBytes;
   j["ratio"] = f.ratio;
   j["peak_memory_bytes"] = f.peakMemoryBytes;
 }
@@ -103,6 +104,7 @@ Json json(const CompressResult& r) {
   j["raw_bytes"] = r.file.rawBytes;
   if (r.pyramid) j["pyramid_raw_bytes"] = r.pyramid->rawBytes;
   j["compressed_bytes"] = r.file.compressedBytes;
+  j["vmf_bytes"] = r.file.vmfBytes;
   j["ratio"] = r.file.ratio;
   if (r.pyramid) j["pyramid_ratio"] = r.pyramid->ratio;
   j["peak_memory_bytes"] = r.file.peakMemoryBytes;

@@ -44,6 +44,7 @@ struct CodecFigures {
   Json params = Json::object(), stats = Json::object();  // the codec's own (its schema)
   double rawBytes = 0;
   uint64_t compressedBytes = 0;
+  uint64_t vmfBytes = 0;  // of compressedBytes: the visibility map the file carries
   double ratio = 0;
   uint64_t peakMemoryBytes = 0;
 };

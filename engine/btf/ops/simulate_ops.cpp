@@ -253,6 +253,8 @@ void simulate(const Call& c) {
                cs.codec.c_str(), formatBytes(double(btfFileBytes(info))).c_str(),
                formatBytes(double(enc->memoryBytes())).c_str()));
     job.setTrainingTexels(enc->trainingTexels(), [&](const float* v) { enc->train(v); });
+    std::vector<float> vmf;  // the file carries the visibility map a store would
+    job.setVmfSink([&](std::vector<float> v) { vmf = std::move(v); });
     double encodeSeconds = 0;
     job.setChunkSink([&](int, int64_t t0, int64_t t1, const float* values) {
       const auto s0 = Clock::now();
@@ -276,6 +278,7 @@ void simulate(const Call& c) {
                                    sr.rankEvalSeconds);
     if (!comm.root()) return;
     c.ctx.check("encoder");
+    b.setVmf(vmf);
     writeCompressed(output, b);
     const double wall = since(start);
     const uint64_t rss = peakRssBytes();

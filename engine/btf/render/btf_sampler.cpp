@@ -6,21 +6,6 @@ namespace btf {
 
 using namespace renderdetail;
 
-namespace {
-// Every direction's map of a raw store, one after the other; a damaged entry never reaches a
-// pixel.
-std::vector<float> vmfMaps(const BtfReader& r, int nDirs) {
-  std::vector<float> all;
-  all.reserve(size_t(nDirs) * size_t(r.info().texels()) * 2);
-  for (int d = 0; d < nDirs; ++d) {
-    std::vector<float> v = r.readVmf(d);
-    for (float& x : v)
-      if (!std::isfinite(x)) x = 0;
-    all.insert(all.end(), v.begin(), v.end());
-  }
-  return all;
-}
-}  // namespace
 
 BtfTile tileOfBtf(const BtfInfo& info, const std::string& path, uint64_t memoryBudget) {
   if (info.sceneJson.empty())
@@ -48,7 +33,7 @@ VmfTable readVmfTable(const std::string& vmfPath, const BtfInfo& I, const std::s
   if (!V.hasVmf) throw Error(vmfPath + ": this BTF has no visibility map either");
   VmfTable t;
   t.nu = V.nu, t.nv = V.nv, t.nDirs = V.nDirs();
-  t.map = vmfMaps(r, t.nDirs);
+  t.map = r.readVmfAll();
   const DirectionSet set = DirectionSet::fromName(V.directionSet);
   if (set.size() != t.nDirs)
     throw Error(vmfPath + ": the direction set of the file does not match its header");
@@ -74,6 +59,7 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
   BtfInfo base;
   if (compressed) {
     CompressedBtf c = readCompressed(path);
+    m_vmf = c.vmf();  // its own visibility map (level 0), when it carries one
     if (!c.levels.empty()) {
       base = c.info;
       strip = makeDecoder(asStrip(std::move(c)));
@@ -115,7 +101,7 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
                 m_data.begin() + ptrdiff_t(uint64_t(I.chunkBegin(c)) * I.texelBytes() / 4));
     }
     clean(m_data.data(), m_data.size());
-    if (I.hasVmf) m_vmf = vmfMaps(r, m_n);
+    if (I.hasVmf) m_vmf = r.readVmfAll();
   } else if (bytes + (K ? coarseBytes : 0) <= memoryBudget / 2) {
     // A compressed BTF is decoded whole when it fits (a render reads each value many times, and
     // a texel's decode shares its work across its values); per value through the decoder
@@ -170,7 +156,8 @@ BtfSampler::BtfSampler(const std::string& path, const std::string& vmfPath, bool
     }
   }
   m_lv[0].dec = std::move(dec);
-  if (m_vmf.empty() && !vmfPath.empty()) m_vmf = readVmfTable(vmfPath, I, path).map;
+  // A raw store given beside a .cbtf supplies the map (in place of the file's own 8-bit one).
+  if (compressed && !vmfPath.empty()) m_vmf = readVmfTable(vmfPath, I, path).map;
   m_hasVmf = !m_vmf.empty();
   if (m_hasVmf && K > 0) {
     auto v = vmfLevels(m_vmf, m_n, m_nu, m_nv, K);

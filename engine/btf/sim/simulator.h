@@ -146,6 +146,10 @@ class SimulationJob {
   /// Chunk consumer: receives every finished chunk (texels [t0, t1), texel-major values).
   using ChunkSink = std::function<void(int chunk, int64_t t0, int64_t t1, const float* values)>;
   void setChunkSink(ChunkSink sink) { m_sink = std::move(sink); }
+  /// Visibility-map consumer (on rank 0, after the hit maps, when the plan keeps the map):
+  /// nDirs × texels × (coverage, mean depth), what a store would hold — a streamed .cbtf's.
+  using VmfSink = std::function<void(std::vector<float> vmf)>;
+  void setVmfSink(VmfSink sink) { m_vmfSink = std::move(sink); }
   /// Texels computed once before the chunks (a compressor's training subset): their values,
   /// texel-major in the given order, go to `sink` after the set-up and before chunk 0.
   using TrainingSink = std::function<void(const float* values)>;
@@ -184,6 +188,7 @@ class SimulationJob {
   mutable std::unique_ptr<EffectPlan> m_plan;
   mutable std::unique_ptr<PointNetwork> m_network;
   ChunkSink m_sink;
+  VmfSink m_vmfSink;
   std::vector<int64_t> m_trainTexels;
   TrainingSink m_trainSink;
   bool m_onlyTrainingTexels = false;

@@ -408,6 +408,18 @@ std::vector<float> BtfReader::readVmf(int dir) const {
   return out;
 }
 
+std::vector<float> BtfReader::readVmfAll() const {
+  std::vector<float> all;
+  all.reserve(size_t(m_info.nDirs()) * size_t(m_info.texels()) * 2);
+  for (int d = 0; d < m_info.nDirs(); ++d) {
+    std::vector<float> v = readVmf(d);
+    for (float& x : v)
+      if (!std::isfinite(x)) x = 0;
+    all.insert(all.end(), v.begin(), v.end());
+  }
+  return all;
+}
+
 void BtfReader::verifyChunk(int c) const {
   if (c < 0 || c >= m_info.chunks()) throw Error(m_path + ": chunk index out of range");
   const uint64_t bytes = uint64_t(m_info.chunkEnd(c) - m_info.chunkBegin(c)) * m_info.texelBytes();

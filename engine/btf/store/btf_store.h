@@ -121,6 +121,8 @@ class BtfReader {
   std::vector<float> readImage(int view, int light) const;
   /// VMF of one direction: nu × nv × (coverage, mean depth).
   std::vector<float> readVmf(int dir) const;
+  /// Every direction's map, one after the other (nDirs × texels × 2); non-finite entries → 0.
+  std::vector<float> readVmfAll() const;
   struct Verification {
     int chunks = 0;
     std::vector<int> badChunks;

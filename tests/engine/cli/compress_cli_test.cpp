@@ -1,7 +1,10 @@
 // btfsim compress / compare / export / simulate --compress end to end on a simulated scene.
+#include <btf/compress/cbtf.h>
 #include <btf/compress/compress.h>
+#include <btf/store/btf_store.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -71,6 +74,67 @@ TEST(BtfsimCompress, StreamedSimulationEqualsCompressingTheStoredBtf) {
             0)
       << out;
   EXPECT_EQ(std::filesystem::file_size(dir / "a.binary"), 34992012u);
+}
+
+// Every .cbtf carries the visibility map of its source (8-bit coded): compress, compress --mip
+// and simulate --compress write the same map, within its quantisation of the store's; render's
+// mapped mode needs no raw store beside it and draws what the store's full map draws; a damaged
+// map is refused naming it.
+TEST(BtfsimCompress, ACompressedFileCarriesItsVisibilityMapAndRendersAlone) {
+  const auto dir = test::tempDir("cli_vmf");
+  const std::string raw = (dir / "a.btf").string(), common = scenePath("brick") +
+                                                             " --texels 8 --dirs 4x8 --spp 1 -q";
+  std::string out;
+  ASSERT_EQ(test::runBtfsim("simulate " + common + " -o " + raw, &out), 0) << out;
+  const std::string t = (dir / "t.cbtf").string(), m = (dir / "m.cbtf").string(),
+                    s = (dir / "s.cbtf").string();
+  ASSERT_EQ(test::runBtfsim("compress " + raw + " -o " + t + " --target-ratio 20 --json -q", &out),
+            0)
+      << out;
+  const auto j = nlohmann::json::parse(out.substr(out.find('{')));
+  ASSERT_EQ(test::runBtfsim("compress " + raw + " -o " + m + " --mip -q", &out), 0) << out;
+  ASSERT_EQ(test::runBtfsim("simulate " + common + " -o " + s + " --compress tensor --target-ratio 20",
+                            &out),
+            0)
+      << out;
+  const std::vector<float> full = BtfReader(raw).readVmfAll();
+  const CompressedBtf ct = readCompressed(t);
+  EXPECT_EQ(ct.codec, "tensor");  // the default codec
+  ASSERT_TRUE(ct.hasVmf());
+  EXPECT_EQ(j.at("vmf_bytes").get<uint64_t>(), ct.vmfCoded.size());
+  EXPECT_EQ(j.at("compressed_bytes").get<uint64_t>(), ct.fileBytes());
+  const std::vector<float> coded = ct.vmf();
+  ASSERT_EQ(coded.size(), full.size());
+  float lo = full[1], hi = full[1];
+  for (size_t k = 1; k < full.size(); k += 2) lo = std::min(lo, full[k]), hi = std::max(hi, full[k]);
+  ASSERT_GT(hi, lo);  // a relief: the depths vary
+  for (size_t k = 0; k < full.size(); k += 2) {
+    ASSERT_NEAR(coded[k], full[k], 1.0 / 510 + 1e-6) << "coverage " << k / 2;
+    ASSERT_NEAR(coded[k + 1], full[k + 1], (hi - lo) / 510 + 1e-6) << "depth " << k / 2;
+  }
+  EXPECT_TRUE(readCompressed(m).vmfCoded == ct.vmfCoded);
+  EXPECT_TRUE(readCompressed(s).vmfCoded == ct.vmfCoded);
+  // The mapped render from the file alone, then with the store's full-precision map.
+  const std::string own = (dir / "own.exr").string(), full1 = (dir / "full.exr").string();
+  ASSERT_EQ(test::runBtfsim("render " + t + " -o " + own + " --size 48 --spp 1 -q", &out), 0) << out;
+  ASSERT_EQ(test::runBtfsim("render " + t + " --vmf " + raw + " -o " + full1 +
+                                " --size 48 --spp 1 -q",
+                            &out),
+            0)
+      << out;
+  ASSERT_EQ(test::runBtfsim("render " + t + " -o " + own + " --size 48 --spp 1 -q --json "
+                                "--reference " + full1,
+                            &out),
+            0)
+      << out;
+  const auto e = nlohmann::json::parse(out.substr(out.find('{'))).at("images").at(0).at("error");
+  EXPECT_LT(e.at("rel_rmse").get<double>(), 0.03) << e.dump();
+  // A damaged map: a flipped byte in its block (the file's last bytes).
+  std::string bytes = test::readFile(t);
+  bytes[bytes.size() - 2] ^= 0x20;
+  std::ofstream(dir / "bad.cbtf", std::ios::binary) << bytes;
+  EXPECT_NE(test::runBtfsim("info " + (dir / "bad.cbtf").string(), &out), 0);
+  EXPECT_NE(out.find("checksum mismatch in the visibility map"), std::string::npos) << out;
 }
 
 TEST(BtfsimCompress, ARatioTheCodecCannotSpendIsAWarningNamingItsLimits) {
