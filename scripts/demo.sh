@@ -41,6 +41,8 @@ echo "== brick on the vase (docs/render.md): exact micro-geometry | mapped shell
 "$SIM" render out/brick.btf -o out/brick_vase.png --mode all --object vase --size 256 --spp 8 --tiling 6 --camera 25,-80 --light 40,-40 --exposure 1.6
 echo "== simulate and compress in one stream (no raw BTF on disk)"
 "$SIM" simulate "$SCENE" -o out/brick_streamed.cbtf --compress tensor --target-ratio 300 -q
+echo "== the streamed .cbtf on the sphere, alone (it carries its visibility map: no raw store)"
+"$SIM" render out/brick_streamed.cbtf -o out/brick_streamed_sphere.png --object sphere --size 192 --spp 4
 if command -v mpirun > /dev/null; then
   echo "== the same simulation as one job of 2 MPI ranks (docs/cluster.md): the same bytes"
   # mpirun refuses root unless told (containers, CI).
