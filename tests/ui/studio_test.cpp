@@ -365,13 +365,28 @@ TEST(Studio, MappedViewMarchesTheShellAsTheCpuRendererDoesPixelByPixel) {
   expectNotBlank(dir / "brick_sphere.png");
   expectNotBlank(dir / "spheres_section.png");
 
-  // Without the raw store, the mapped view has no visibility map: a clear message.
+  // Without the raw store: the file's own (8-bit) visibility map, on the GPU and the CPU alike.
   json b = json::array();
   b.push_back({{"open_compressed", brick + ".cbtf"}});
   b.push_back({{"panel", "Objects"}});
-  b.push_back({{"object", "sphere"}, {"view", "mapped"}});
-  b.push_back({{"check_mapped", {{"size", {32, 24}}}}});
-  EXPECT_NE(runStudio(b, dir, &log), 0) << log;
+  b.push_back({{"object", "sphere"}, {"view", "mapped"}, {"tiling", 4}, {"pitch", 0.5}});
+  b.push_back({{"check_mapped", {{"size", {80, 60}}}}});
+  b.push_back({{"report", (dir / "alone.json").string()}});
+  ASSERT_EQ(runStudio(b, dir, &log), 0) << log;
+  const json alone = json::parse(readFile(dir / "alone.json")).at("check_mapped_sphere");
+  EXPECT_GT(alone["covered_pixels_cpu"].get<int>(), 200) << alone.dump();
+  EXPECT_LE(alone["rel_rmse_interior"].get<double>(), 1e-3) << alone.dump();
+  // A .cbtf without a map of its own (written before files carried theirs) and no raw store:
+  // a clear message.
+  CompressedBtf old = readCompressed(brick + ".cbtf");
+  old.vmfCoded.clear();
+  writeCompressed((dir / "old.cbtf").string(), old);
+  json c = json::array();
+  c.push_back({{"open_compressed", (dir / "old.cbtf").string()}});
+  c.push_back({{"panel", "Objects"}});
+  c.push_back({{"object", "sphere"}, {"view", "mapped"}});
+  c.push_back({{"check_mapped", {{"size", {32, 24}}}}});
+  EXPECT_NE(runStudio(c, dir, &log), 0) << log;
   EXPECT_NE(log.find("visibility map"), std::string::npos) << log;
 }
 

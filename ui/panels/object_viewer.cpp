@@ -209,8 +209,9 @@ bool ensureShell(const ObjectView& app) {
                          tile.geometry.zmin, tile.geometry.zmax,
                          viewerRenderSettings(o, o.radius, 64, 64));
     VmfTable v;
-    if (!tile.flat && c.hasVmf()) {
-      // The file's own visibility map (every .cbtf written since 2026-12-07 carries it).
+    if (!tile.flat && c.hasVmf() && app.insp.reference.empty()) {
+      // The file's own visibility map (every .cbtf written since 2026-12-07 carries it, in 8
+      // bits); an open reference supplies its full-precision one instead, as `render --vmf`.
       v.nu = c.info.nu, v.nv = c.info.nv, v.nDirs = c.info.nDirs();
       v.map = c.vmf();
       const DirectionSet set = DirectionSet::fromName(c.info.directionSet);
