@@ -47,8 +47,13 @@ struct CompressedBtf {
   std::vector<uint8_t> vmfCoded;
   float vmfDepth[2] = {0, 0};
 
-  /// Codes `vmf` (nDirs × texels × 2 floats) into vmfCoded.
+  /// Codes `vmf` (nDirs × texels × 2 floats, of info's level 0) into vmfCoded.
   void setVmf(const std::vector<float>& vmf);
+  /// The coded map of `other` (the same level 0), as setVmf left it there.
+  void copyVmf(const CompressedBtf& other) {
+    vmfCoded = other.vmfCoded;
+    vmfDepth[0] = other.vmfDepth[0], vmfDepth[1] = other.vmfDepth[1];
+  }
   bool hasVmf() const { return !vmfCoded.empty(); }
   /// The decoded map (nDirs × texels × 2 floats); btf::Error when the coded bytes are damaged.
   std::vector<float> vmf() const;

@@ -92,6 +92,12 @@ class Encoder {
   /// instead reduce its statistics and gather only its output (nmf). Every rank calls it; rank 0
   /// gets the file, the others an empty CompressedBtf. On one process, finish().
   virtual CompressedBtf finishOn(Comm& comm);
+  /// Bytes the file holds beside the codec's arrays (its visibility map): a --target-ratio
+  /// budget leaves them out, so that the whole file lands at the ratio asked. Before train().
+  void reserveBytes(uint64_t n) { m_reservedBytes = n; }
+
+ protected:
+  uint64_t m_reservedBytes = 0;
 };
 
 /// Appends and reads back the plain values of encoder states (addedState / mergeAdded).

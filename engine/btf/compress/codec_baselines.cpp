@@ -165,7 +165,8 @@ class TrainedEncoder : public Encoder {
     // no longer fits raw/ratio, or (error target) the unexplained energy is ≤ target² · total.
     const bool byRatio = m_s.targetRatio > 0;
     const double cost = (bytesOf(2) - bytesOf(1)) / 3, fixed = bytesOf(1) - 3 * cost;
-    double budget = byRatio ? rawBytes() / m_s.targetRatio - 65536.0 - fixed : 0;
+    double budget =
+        byRatio ? rawBytes() / m_s.targetRatio - 65536.0 - fixed - double(m_reservedBytes) : 0;
     const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
     double total = 0;
     for (int c = 0; c < 3; ++c) total += spectra[c].total;

@@ -277,7 +277,8 @@ class NmfEncoder final : public Encoder {
       // coefficient per slot and texel; it removes its eigenvalue from the error. Each coded
       // channel starts with one component per side.
       const double scalar = m_s.half ? 2 : 4;
-      double budget = raw / m_s.targetRatio - 65536.0;  // header and alignment
+      // Header and alignment, and the visibility map beside the arrays.
+      double budget = raw / m_s.targetRatio - 65536.0 - double(m_reservedBytes);
       auto cost = [&](int c) { return (double(m_n) + double(T) * K[c]) * scalar; };
       for (int c = 0; c < 3; ++c)
         for (int side = 0; side < 2; ++side)

@@ -472,7 +472,8 @@ class TensorEncoder final : public Encoder {
     for (size_t kc = 0; kc < KC; ++kc) total += scale[kc] * spec[kc].energy;
     const bool byRatio = m_s.targetRatio > 0;
     const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
-    double budget = byRatio ? rawBytes() / m_s.targetRatio - fixedBytes() : 0;
+    double budget =
+        byRatio ? rawBytes() / m_s.targetRatio - fixedBytes() - double(m_reservedBytes) : 0;
     double err = 0;
     auto cost = [&](size_t kc, int mode) {
       const Ranks& r = m_ranks[kc];
@@ -561,7 +562,8 @@ class TensorEncoder final : public Encoder {
     totals(energy, proj);
     const bool byRatio = m_s.targetRatio > 0;
     const double target = m_s.targetRmse > 0 ? m_s.targetRmse : 0.05;
-    double budget = rawBytes() / (byRatio ? m_s.targetRatio : 1) - fixedBytes();
+    double budget = rawBytes() / (byRatio ? m_s.targetRatio : 1) - fixedBytes() -
+                    (byRatio ? double(m_reservedBytes) : 0.0);
     for (size_t kc = 0; kc < KC; ++kc) budget -= sb * m_n * double(m_ranks[kc].v + m_ranks[kc].l);
     auto cost = [&](size_t kc) {
       return sb * (double(members[kc / 3].size()) + double(m_ranks[kc].v) * m_ranks[kc].l);

@@ -38,6 +38,7 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
   const auto start = Clock::now();
   std::unique_ptr<BtfReader> reader;
   std::unique_ptr<Encoder> enc;
+  CompressedBtf vmfOnly;  // the coded visibility map alone
   CompressReport r;
   // In a cluster job every rank reaches each agreement, even when its own share failed.
   collectively(comm, [&] {
@@ -46,6 +47,13 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
     const BtfInfo& info = in.info();
     enc = makeEncoder(s, info, cancel);
     enc->setProgress(progress);
+    // The visibility map goes into the file beside the arrays: coded first, so that a
+    // --target-ratio budget leaves its bytes out (every rank reads it: the same budget).
+    if (info.hasVmf) {
+      vmfOnly.info = info;
+      vmfOnly.setVmf(in.readVmfAll());
+      enc->reserveBytes(vmfOnly.vmfCoded.size());
+    }
     r.texels = info.texels();
     r.texelBytes = double(info.texelBytes());
     const auto train = enc->trainingTexels();
@@ -104,7 +112,7 @@ CompressedBtf compressStore(const std::string& inPath, const CodecSettings& s, b
     return out;
   }
   r.finishSeconds = since(f0);
-  if (reader->info().hasVmf) out.setVmf(reader->readVmfAll());  // the file is self-sufficient
+  out.copyVmf(vmfOnly);  // the file is self-sufficient
   finishReport(&r, out, since(start));
   if (report) *report = r;
   return out;

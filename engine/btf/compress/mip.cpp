@@ -374,6 +374,12 @@ CompressedBtf compressPyramid(const std::string& inPath, const CodecSettings& s,
   const size_t stride = strideOf(I);
   const BtfInfo S = pyramidInfo(I);
   std::unique_ptr<Encoder> enc = makeEncoder(s, S, cancel);
+  CompressedBtf vmfOnly;  // level 0's visibility map, coded; its bytes are not the codec's
+  if (I.hasVmf) {
+    vmfOnly.info = I;
+    vmfOnly.setVmf(reader.readVmfAll());
+    enc->reserveBytes(vmfOnly.vmfCoded.size());
+  }
   const auto train = enc->trainingTexels();
   const double coarseBytes = double(S.texels() - I.texels()) * double(I.texelBytes());
   if (s.memoryBudget > 0) {
@@ -433,7 +439,7 @@ CompressedBtf compressPyramid(const std::string& inPath, const CodecSettings& s,
   r.finishSeconds = since(t0);
   out.info = I;
   out.levels = L;
-  if (I.hasVmf) out.setVmf(reader.readVmfAll());  // level 0's; the coarser follow (vmfLevels)
+  out.copyVmf(vmfOnly);  // level 0's; the coarser follow from it (vmfLevels)
   // Each level's error against the exact level (level 0 = the store itself).
   {
     std::shared_ptr<const Decoder> dec = makeDecoder(asStrip(out));

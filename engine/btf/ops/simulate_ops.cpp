@@ -253,8 +253,14 @@ void simulate(const Call& c) {
                cs.codec.c_str(), formatBytes(double(btfFileBytes(info))).c_str(),
                formatBytes(double(enc->memoryBytes())).c_str()));
     job.setTrainingTexels(enc->trainingTexels(), [&](const float* v) { enc->train(v); });
-    std::vector<float> vmf;  // the file carries the visibility map a store would
-    job.setVmfSink([&](std::vector<float> v) { vmf = std::move(v); });
+    // The file carries the visibility map a store would: coded before the training texels, so
+    // that a --target-ratio budget leaves its bytes out (on every rank: the same budget).
+    CompressedBtf vmfOnly;
+    job.setVmfSink([&](std::vector<float> v) {
+      vmfOnly.info = info;
+      vmfOnly.setVmf(v);
+      enc->reserveBytes(vmfOnly.vmfCoded.size());
+    });
     double encodeSeconds = 0;
     job.setChunkSink([&](int, int64_t t0, int64_t t1, const float* values) {
       const auto s0 = Clock::now();
@@ -278,7 +284,7 @@ void simulate(const Call& c) {
                                    sr.rankEvalSeconds);
     if (!comm.root()) return;
     c.ctx.check("encoder");
-    b.setVmf(vmf);
+    b.copyVmf(vmfOnly);
     writeCompressed(output, b);
     const double wall = since(start);
     const uint64_t rss = peakRssBytes();

@@ -153,7 +153,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   r.precomputeSeconds = r.hitMapSeconds + (gi ? r.networkSeconds : 0);
   throwIfCancelled(cancel, "hit maps");
   const int nD = m_dirs.size();
-  if ((writer || m_vmfSink) && comm.root()) {
+  if ((writer && comm.root()) || m_vmfSink) {
     std::vector<float> vmf;
     if (info.hasVmf) {
       vmf.reserve(size_t(nD) * size_t(info.texels()) * 2);
@@ -162,8 +162,8 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
         vmf.insert(vmf.end(), v.begin(), v.end());
       }
     }
-    if (writer) writer->writeVmf(vmf);
-    if (m_vmfSink && !vmf.empty()) m_vmfSink(std::move(vmf));
+    if (writer && comm.root()) writer->writeVmf(vmf);
+    if (m_vmfSink && !vmf.empty()) m_vmfSink(std::move(vmf));  // every rank: the same maps
   }
 
   if (m_exact && !m_exact->prepared()) {

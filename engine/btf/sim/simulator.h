@@ -146,7 +146,8 @@ class SimulationJob {
   /// Chunk consumer: receives every finished chunk (texels [t0, t1), texel-major values).
   using ChunkSink = std::function<void(int chunk, int64_t t0, int64_t t1, const float* values)>;
   void setChunkSink(ChunkSink sink) { m_sink = std::move(sink); }
-  /// Visibility-map consumer (on rank 0, after the hit maps, when the plan keeps the map):
+  /// Visibility-map consumer (on every rank, after the hit maps and before the training
+  /// texels, when the plan keeps the map):
   /// nDirs × texels × (coverage, mean depth), what a store would hold — a streamed .cbtf's.
   using VmfSink = std::function<void(std::vector<float> vmf)>;
   void setVmfSink(VmfSink sink) { m_vmfSink = std::move(sink); }
