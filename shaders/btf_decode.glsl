@@ -348,54 +348,37 @@ vec3 decodeFactorTexels(int tt[4], float tw[4], float thetaI, float phiI, float 
   return acc;
 }
 
-// At a position (x, y) in the texel units of an nu × nv grid whose texels start at pyramid texel
-// `first` (a level; 0 for level 0), bilinear between texel centres (periodic).
-vec3 decodeAtGrid(float x, float y, int nu, int nv, int first, float thetaI, float phiI,
-                  float thetaO, float phiO) {
-  if (u_codec == 5) {
-    // neural: continuous in direction (no interpolation between the set's), one direction part.
-    float cosine = nnDirection(thetaI, phiI, thetaO, phiO);
-    float fx = x - 0.5, fy = y - 0.5;
-    float x0 = floor(fx), y0 = floor(fy);
-    float ax = fx - x0, ay = fy - y0;
-    vec3 acc = vec3(0.0);
-    for (int j = 0; j < 2; ++j)
-      for (int i = 0; i < 2; ++i) {
-        float w = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
-        if (w <= 0.0) continue;
-        int u = int(mod(x0 + float(i), float(nu)));
-        int v = int(mod(y0 + float(j), float(nv)));
-        acc += w * nnTexel(first + u + nu * v, cosine);
-      }
-    return acc;
-  }
-  if (nmfFast() || u_codec == 4) {
-    float fx = x - 0.5, fy = y - 0.5;
-    float x0 = floor(fx), y0 = floor(fy);
-    float ax = fx - x0, ay = fy - y0;
-    int tt[4];
-    float tw[4];
-    for (int j = 0; j < 2; ++j)
-      for (int i = 0; i < 2; ++i) {
-        int u = int(mod(x0 + float(i), float(nu)));
-        int v = int(mod(y0 + float(j), float(nv)));
-        tt[j * 2 + i] = first + u + nu * v;
-        tw[j * 2 + i] = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
-      }
-    return decodeFactorTexels(tt, tw, thetaI, phiI, thetaO, phiO);
-  }
+// The four texels around (x, y) in the texel units of an nu × nv grid whose texels start at
+// pyramid texel `first` (a level; 0 for level 0) and their bilinear weights (texel centres at
+// integer + ½, periodic).
+void bilinearTexels(float x, float y, int nu, int nv, int first, out int tt[4], out float tw[4]) {
   float fx = x - 0.5, fy = y - 0.5;
   float x0 = floor(fx), y0 = floor(fy);
   float ax = fx - x0, ay = fy - y0;
-  vec3 acc = vec3(0.0);
   for (int j = 0; j < 2; ++j)
     for (int i = 0; i < 2; ++i) {
-      float w = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
-      if (w <= 0.0) continue;
       int u = int(mod(x0 + float(i), float(nu)));
       int v = int(mod(y0 + float(j), float(nv)));
-      acc += w * decodeTexel(first + u + nu * v, thetaI, phiI, thetaO, phiO);
+      tt[j * 2 + i] = first + u + nu * v;
+      tw[j * 2 + i] = (i == 1 ? ax : 1.0 - ax) * (j == 1 ? ay : 1.0 - ay);
     }
+}
+
+// At a position (x, y) of that grid, bilinear between texel centres.
+vec3 decodeAtGrid(float x, float y, int nu, int nv, int first, float thetaI, float phiI,
+                  float thetaO, float phiO) {
+  int tt[4];
+  float tw[4];
+  bilinearTexels(x, y, nu, nv, first, tt, tw);
+  if (nmfFast() || u_codec == 4) return decodeFactorTexels(tt, tw, thetaI, phiI, thetaO, phiO);
+  // neural: continuous in direction (no interpolation between the set's), one direction part.
+  float cosine = u_codec == 5 ? nnDirection(thetaI, phiI, thetaO, phiO) : 0.0;
+  vec3 acc = vec3(0.0);
+  for (int k = 0; k < 4; ++k) {
+    if (tw[k] <= 0.0) continue;
+    acc += tw[k] * (u_codec == 5 ? nnTexel(tt[k], cosine)
+                                 : decodeTexel(tt[k], thetaI, phiI, thetaO, phiO));
+  }
   return acc;
 }
 
