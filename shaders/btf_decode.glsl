@@ -127,6 +127,7 @@ uniform int u_nnSize[NN_LAYERS + 1];
 uniform int u_nnW[NN_LAYERS];      // offsets of W and b per layer in u_a0
 uniform int u_nnB[NN_LAYERS];
 uniform int u_nnEnc;               // 0 raw (6 features), 1 halfdiff (12), 2 fourier (36)
+uniform int u_nnMinimal;           // 1: ω_i into h's frame by the minimal rotation (half_frame)
 float nnDir[NN_MAX];
 float nnA[NN_MAX];
 float nnB[NN_MAX];
@@ -146,7 +147,13 @@ int nnFeatures(float thetaI, float phiI, float thetaO, float phiO, out float f[3
   if (abs(h.x) + abs(h.y) == 0.0) ph = 0.0;
   float cp = cos(ph), sp = sin(ph), ct = cos(th), st = sin(th);
   float x = wi.x * cp + wi.y * sp, y = -wi.x * sp + wi.y * cp, z = wi.z;
-  f[9] = x * ct - z * st; f[10] = y; f[11] = x * st + z * ct;
+  float dx = x * ct - z * st, dy = y;
+  if (u_nnMinimal == 1) {  // and back by φ_h about z: continuous where h meets the normal
+    f[9] = dx * cp - dy * sp; f[10] = dx * sp + dy * cp;
+  } else {
+    f[9] = dx; f[10] = dy;
+  }
+  f[11] = x * st + z * ct;
   if (u_nnEnc == 1) return 12;
   for (int i = 0; i < 12; ++i) {
     f[12 + 2 * i] = sin(3.14159265358979 * f[i]);

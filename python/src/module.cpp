@@ -186,7 +186,9 @@ class PyBtf {
     py::array_t<float> out({n, ssize_t(3)});
     float* o = out.mutable_data();
     const double *pu = uv.data(), *pi = wi.data(), *po = wo.data();
-    const std::vector<float>* all = dense(lev);
+    // A continuous decoder (neural) is read at the pair itself, as `btfsim render` reads it;
+    // the others' values are interpolated between the set's directions, from memory when they fit.
+    const std::vector<float>* all = d.continuous() ? nullptr : dense(lev);
     released([&] {
       if (all)
         evaluateBatch(d.info(), all->data(), size_t(n), pu, pi, po, o);

@@ -28,7 +28,8 @@ def scene(name):
 @pytest.fixture(scope="session")
 def files(tmp_path_factory):
     """A raw brick store 8 x 6 texels at 4 x 8 directions, and it compressed by every codec and
-    as a pyramid: {kind: path}."""
+    as a pyramid (neural with few training steps: its decoder, not its accuracy, is under test):
+    {kind: path}."""
     d = tmp_path_factory.mktemp("btfs")
     raw = d / "brick.btf"
     btfsim("simulate", scene("brick"), "-o", raw, "--texels", "8x6", "--dirs", "4x8", "--spp", "2",
@@ -38,6 +39,9 @@ def files(tmp_path_factory):
         p = d / f"brick_{codec}.cbtf"
         btfsim("compress", raw, "-o", p, "--codec", codec, "-q")
         out[codec] = p
+    p = d / "brick_neural.cbtf"
+    btfsim("compress", raw, "-o", p, "--codec", "neural", "--neural-steps", "300", "-q")
+    out["neural"] = p
     p = d / "brick_mip.cbtf"
     btfsim("compress", raw, "-o", p, "--codec", "tensor", "--mip", "-q")
     out["mip"] = p

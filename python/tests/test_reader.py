@@ -11,7 +11,7 @@ import pytest
 import btfstudio
 from conftest import SOURCE, btfsim
 
-KINDS = ("raw", "nmf", "svd", "perview", "lpca", "tensor", "mip")
+KINDS = ("raw", "nmf", "svd", "perview", "lpca", "tensor", "neural", "mip")
 PAIRS = [((0, 0), (45, 0)), ((30, 90), (45, 180)), ((62.5, 10), (20, 300)), ((85, 45), (88, 225))]
 
 
@@ -35,7 +35,7 @@ def test_every_kind_opens_and_slices_equal_btfsim_slice_bit_for_bit(files, tmp_p
             assert np.all(np.isfinite(img)) and np.all(img >= 0)
 
 
-@pytest.mark.parametrize("kind", ["raw", "tensor"])
+@pytest.mark.parametrize("kind", ["raw", "tensor", "neural"])
 def test_texel_values_and_brdf_agree_with_the_slices(files, kind):
     b = btfstudio.open(files[kind])
     dirs = b.directions
@@ -64,6 +64,37 @@ def test_texel_values_and_brdf_agree_with_the_slices(files, kind):
     # The tile average is the mean of every texel's matrix.
     avg = np.mean([b.texel(u, v) for v in range(6) for u in range(8)], axis=0)
     np.testing.assert_allclose(b.brdf(), avg, rtol=1e-5, atol=1e-7)
+
+
+def test_a_neural_file_is_read_at_the_pair_itself_not_interpolated(files):
+    """values() of a neural .cbtf is the network's own value at any pair (as btfsim render reads
+    it): continuous through a set direction, and between two set directions not the linear blend
+    of the two set values that the other codecs' lookups give."""
+    b = btfstudio.open(files["neural"])
+    dirs = b.directions
+    m = b.texel(3, 2)
+    uv = np.array([[(3 + 0.5) / 8, (2 + 0.5) / 6]])
+    # Views on one ring (θ = dirs[9]'s) between two neighbours of the set, the light fixed.
+    ring = [k for k in range(len(dirs)) if abs(dirs[k][0] - dirs[9][0]) < 1e-9]
+    a, c = sorted(ring, key=lambda k: dirs[k][1])[:2]
+    light = 5
+    wl = btfstudio.directions_to_vectors(dirs[[light]])
+    # Continuous through the set direction: a step of 1e-3 degrees moves the value by little.
+    for dphi in (1e-3, -1e-3):
+        near = btfstudio.directions_to_vectors(np.array([[dirs[a][0], dirs[a][1] + dphi]]))
+        got = b.values(uv, wl, near)[0]
+        np.testing.assert_allclose(got, m[a, light], rtol=1e-3, atol=1e-6)
+    # Half way: the network's value, which differs from the two neighbours' blend.
+    mid = btfstudio.directions_to_vectors(np.array([[dirs[a][0], 0.5 * (dirs[a][1] + dirs[c][1])]]))
+    got = b.values(uv, wl, mid)[0]
+    blend = 0.5 * (m[a, light] + m[c, light])
+    assert np.all(np.isfinite(got)) and np.all(got >= 0)
+    assert np.max(np.abs(got - blend)) > 1e-4 * np.max(np.abs(blend)), (got, blend)
+    # The raw store's lookups at the same point are the blend (the contrast that the test draws).
+    r = btfstudio.open(files["raw"])
+    mr = r.texel(3, 2)
+    np.testing.assert_allclose(r.values(uv, wl, mid)[0], 0.5 * (mr[a, light] + mr[c, light]),
+                               rtol=1e-5, atol=1e-7)
 
 
 def test_lookups_below_the_horizon_or_not_finite_are_zero_never_nan(files):

@@ -42,11 +42,12 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
   const CompressedBtf& c = *app.insp.cbtf;
   // neural: the network's shape from the file's params (the CPU decoder validated them).
   std::vector<int> nnSizes;
-  int nnEnc = 0;
+  int nnEnc = 0, nnMinimal = 0;
   if (c.codec == "neural") {
     const json p = json::parse(c.paramsJson);
     const std::string enc = p.at("encoding").get<std::string>();
     nnEnc = enc == "raw" ? 0 : enc == "halfdiff" ? 1 : 2;
+    nnMinimal = p.contains("half_frame") && p["half_frame"] == "minimal" ? 1 : 0;
     const int hidden = p.at("hidden").get<int>(), layers = p.at("hidden_layers").get<int>();
     if (hidden > 128)
       throw Error(format("the GLSL neural decoder handles hidden layers of up to 128 units; this "
@@ -156,6 +157,7 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
     prog.setInts("u_nnW", wOff, 9);
     prog.setInts("u_nnB", bOff, 9);
     prog.set("u_nnEnc", nnEnc);
+    prog.set("u_nnMinimal", nnMinimal);
   }
   prog.set("u_ycc", c.colour == "ycc" ? 1 : 0);
   prog.set("u_nu", c.info.nu);

@@ -51,7 +51,14 @@ int featureCount(const std::string& encoding) {
 }
 
 /// The network's direction input for light ω_i and view ω_o (local frame, z the normal).
-void features(const std::string& encoding, const DVec3& wi, const DVec3& wo, float* f) {
+/// `minimal`: ω_i is carried into the half vector's frame by the rotation that takes h to z about
+/// h × z (files written from 2026-12-07, params.half_frame "minimal"); else by Rusinkiewicz's
+/// rotations, −φ_h about z then −θ_h about y (the earlier files). The two differ by a rotation of
+/// φ_h about z; Rusinkiewicz's frame is discontinuous where h meets the normal (φ_h is then
+/// arbitrary, so at the mirror pair — the highlight — the feature follows rounding noise), the
+/// minimal rotation tends to the identity there whatever φ_h.
+void features(const std::string& encoding, const DVec3& wi, const DVec3& wo, float* f,
+              bool minimal) {
   f[0] = float(wi.x), f[1] = float(wi.y), f[2] = float(wi.z);
   f[3] = float(wo.x), f[4] = float(wo.y), f[5] = float(wo.z);
   if (encoding == "raw") return;
@@ -64,7 +71,11 @@ void features(const std::string& encoding, const DVec3& wi, const DVec3& wo, flo
   const double th = std::acos(std::clamp(h.z, -1.0, 1.0)), ph = std::atan2(h.y, h.x);
   const double cp = std::cos(ph), sp = std::sin(ph), ct = std::cos(th), st = std::sin(th);
   const double x = wi.x * cp + wi.y * sp, y = -wi.x * sp + wi.y * cp, z = wi.z;
-  f[9] = float(x * ct - z * st), f[10] = float(y), f[11] = float(x * st + z * ct);
+  const double dx = x * ct - z * st, dy = y, dz = x * st + z * ct;
+  if (minimal)  // and back by φ_h about z
+    f[9] = float(dx * cp - dy * sp), f[10] = float(dx * sp + dy * cp), f[11] = float(dz);
+  else
+    f[9] = float(dx), f[10] = float(dy), f[11] = float(dz);
   if (encoding != "fourier") return;
   // Fourier features of the twelve (Tancik et al. 2020): sin and cos of π · each.
   for (int i = 0; i < 12; ++i) {
@@ -76,6 +87,7 @@ void features(const std::string& encoding, const DVec3& wi, const DVec3& wo, flo
 struct Shape {
   int latent = 8, hidden = 32, hiddenLayers = 2;
   std::string encoding = "halfdiff";
+  bool minimalFrame = true;  // features(): false only for files before params.half_frame
   std::vector<int> sizes() const {
     std::vector<int> s{latent + featureCount(encoding)};
     for (int i = 0; i < hiddenLayers; ++i) s.push_back(hidden);
@@ -85,13 +97,13 @@ struct Shape {
 };
 
 /// The set's features, one column per pair k = view · nL + light.
-Mat pairFeatures(const DirectionSet& d, const std::string& encoding) {
+Mat pairFeatures(const DirectionSet& d, const std::string& encoding, bool minimal) {
   const int n = d.size(), D = featureCount(encoding);
   Mat F(D, int64_t(n) * n);
   std::vector<float> f(static_cast<size_t>(D));
   for (int v = 0; v < n; ++v)
     for (int l = 0; l < n; ++l) {
-      features(encoding, d[l].w, d[v].w, f.data());
+      features(encoding, d[l].w, d[v].w, f.data(), minimal);
       for (int i = 0; i < D; ++i) F(i, int64_t(v) * n + l) = f[size_t(i)];
     }
   return F;
@@ -150,7 +162,7 @@ class NeuralEncoder final : public Encoder {
     const int64_t T = int64_t(m_train.size());
     const int L = m_shape.latent;
     const size_t stride = size_t(m_pairs) * 3;
-    m_features = pairFeatures(m_dirs, m_shape.encoding);
+    m_features = pairFeatures(m_dirs, m_shape.encoding, m_shape.minimalFrame);
     const int D = int(m_features.rows());
     // Gains: each training texel's RMS in the colour model.
     std::vector<double> sq(size_t(T), 0.0);
@@ -313,6 +325,7 @@ class NeuralEncoder final : public Encoder {
     params["hidden"] = m_shape.hidden;
     params["hidden_layers"] = m_shape.hiddenLayers;
     params["encoding"] = m_shape.encoding;
+    params["half_frame"] = "minimal";
     params["training_texels"] = m_train.size();
     out.paramsJson = params.dump();
     nlohmann::ordered_json st;
@@ -533,6 +546,10 @@ class NeuralDecoder final : public Decoder {
          params["encoding"] != "fourier"))
       throw Error("compressed BTF (neural): params.encoding must be halfdiff, fourier or raw");
     m_shape.encoding = params["encoding"].get<std::string>();
+    if (params.contains("half_frame") &&
+        !(params["half_frame"] == "minimal" || params["half_frame"] == "rusinkiewicz"))
+      throw Error("compressed BTF (neural): params.half_frame must be minimal or rusinkiewicz");
+    m_shape.minimalFrame = params.contains("half_frame") && params["half_frame"] == "minimal";
     m_net.sizes = m_shape.sizes();
     const CArray& w = m_c.array("neural.weights");
     if (w.rows != 1 || w.cols != nn::Net::paramCount(m_net.sizes))
@@ -561,7 +578,8 @@ class NeuralDecoder final : public Decoder {
         throw Error("compressed BTF (neural): neural.gain holds a negative or non-finite value");
     m_n = m_info.nDirs();
     for (int l = 0; l < m_n; ++l) m_cos.push_back(lightCosine(float((*m_dirs)[l].w.z)));
-    m_terms = pairTerms(m_net, m_shape.latent, pairFeatures(*m_dirs, m_shape.encoding));
+    m_terms = pairTerms(m_net, m_shape.latent,
+                        pairFeatures(*m_dirs, m_shape.encoding, m_shape.minimalFrame));
   }
   std::string kind() const override { return "neural"; }
   bool continuous() const override { return true; }
@@ -600,7 +618,8 @@ class NeuralDecoder final : public Decoder {
     check(t);
     const int D = featureCount(m_shape.encoding);
     float f[36];
-    features(m_shape.encoding, sphericalDir(thetaI, phiI), sphericalDir(thetaO, phiO), f);
+    features(m_shape.encoding, sphericalDir(thetaI, phiI), sphericalDir(thetaO, phiO), f,
+             m_shape.minimalFrame);
     const auto W = m_net.W(0);
     Mat terms = W.rightCols(D) * Eigen::Map<const Vec>(f, D) + m_net.b(0);
     nn::Pass p;

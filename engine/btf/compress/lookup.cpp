@@ -31,74 +31,142 @@ int64_t wrap(int64_t i, int n) {
 
 namespace {
 
-// The lookups over any source of values: value(t, view, light) → three floats. The (view, light)
-// pairs and their weights once per lookup, then each of the four texels a run of reads.
-template <class Value>
+// One lookup's direction pairs and texels: up to 16 (view, light) pairs of the set with their
+// weights, and the four texels of the bilinear footprint with theirs. False when the lookup is 0
+// (a direction at or below the horizon, or a position that is not finite).
+struct Footprint {
+  int pairs = 0;
+  double pw[16];
+  int pv[16], pl[16];
+  int texels = 0;
+  int64_t t[4];
+  double tw[4];
+};
+
+bool footprint(const BtfInfo& I, const DirectionSet& dirs, const double* uv, const double* wi,
+               const double* wo, Footprint& f) {
+  DirWeight wl[4], wv[4];
+  const int nl = weightsOf(dirs, wi, wl);
+  const int nv = nl ? weightsOf(dirs, wo, wv) : 0;
+  const double u = uv[0], v = uv[1];
+  if (!nv || !std::isfinite(u) || !std::isfinite(v)) return false;
+  f.pairs = 0;
+  for (int a = 0; a < nv; ++a)
+    for (int b = 0; b < nl; ++b) {
+      const double ww = wv[a].weight * wl[b].weight;
+      if (ww == 0) continue;
+      f.pw[f.pairs] = ww, f.pv[f.pairs] = wv[a].index, f.pl[f.pairs++] = wl[b].index;
+    }
+  // As Decoder::evaluateAt: texel centres at integer + ½, bilinear over four texels.
+  const double fx = (u - std::floor(u)) * I.nu - 0.5;
+  const double fy = (v - std::floor(v)) * I.nv - 0.5;
+  const double x0 = std::floor(fx), y0 = std::floor(fy);
+  const double ax = fx - x0, ay = fy - y0;
+  f.texels = 0;
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      const double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
+      if (w == 0) continue;
+      f.tw[f.texels] = w;
+      f.t[f.texels++] = wrap(int64_t(x0) + i, I.nu) + int64_t(I.nu) * wrap(int64_t(y0) + j, I.nv);
+    }
+  return true;
+}
+
+// The n lookups, `one(k, footprint, out)` filling a lookup that is not 0.
+template <class One>
 void lookups(const BtfInfo& I, size_t n, const double* uv, const double* wi, const double* wo,
-             float* out, const CancelToken* cancel, const Value& value) {
+             float* out, const CancelToken* cancel, const One& one) {
   const DirectionSet dirs = DirectionSet::fromName(I.directionSet);
   if (dirs.size() != I.nDirs())
     throw Error("the direction set of the BTF does not match its header");
   parallelForChunks(
       int64_t(n), 4096,
       [&](int64_t k0, int64_t k1) {
+        Footprint f;
         for (int64_t k = k0; k < k1; ++k) {
           float* o = out + size_t(k) * 3;
           o[0] = o[1] = o[2] = 0.f;
-          DirWeight wl[4], wv[4];
-          const int nl = weightsOf(dirs, wi + size_t(k) * 3, wl);
-          const int nv = nl ? weightsOf(dirs, wo + size_t(k) * 3, wv) : 0;
-          const double u = uv[size_t(k) * 2], v = uv[size_t(k) * 2 + 1];
-          if (!nv || !std::isfinite(u) || !std::isfinite(v)) continue;
-          double pw[16];
-          int pv[16], pl[16];
-          int np = 0;
-          for (int a = 0; a < nv; ++a)
-            for (int b = 0; b < nl; ++b) {
-              const double ww = wv[a].weight * wl[b].weight;
-              if (ww == 0) continue;
-              pw[np] = ww, pv[np] = wv[a].index, pl[np++] = wl[b].index;
-            }
-          // As Decoder::evaluateAt: texel centres at integer + ½, bilinear over four texels, each
-          // texel's value interpolated between the set's directions in double, rounded once.
-          const double fx = (u - std::floor(u)) * I.nu - 0.5;
-          const double fy = (v - std::floor(v)) * I.nv - 0.5;
-          const double x0 = std::floor(fx), y0 = std::floor(fy);
-          const double ax = fx - x0, ay = fy - y0;
-          double acc[3] = {0, 0, 0};
-          for (int j = 0; j < 2; ++j)
-            for (int i = 0; i < 2; ++i) {
-              const double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
-              if (w == 0) continue;
-              const int64_t t =
-                  wrap(int64_t(x0) + i, I.nu) + int64_t(I.nu) * wrap(int64_t(y0) + j, I.nv);
-              double tv[3] = {0, 0, 0};
-              for (int p = 0; p < np; ++p) {
-                const auto x = value(t, pv[p], pl[p]);
-                for (int c = 0; c < 3; ++c) tv[c] += pw[p] * x[size_t(c)];
-              }
-              for (int c = 0; c < 3; ++c) acc[c] += w * float(tv[c]);
-            }
-          for (int c = 0; c < 3; ++c) o[c] = float(acc[c]);
+          if (footprint(I, dirs, uv + size_t(k) * 2, wi + size_t(k) * 3, wo + size_t(k) * 3, f))
+            one(size_t(k), f, o);
         }
       },
       cancel);
   throwIfCancelled(cancel, "lookup");
 }
 
+// Each texel's value interpolated between the set's directions in double, rounded once to float
+// (as Decoder::evaluateAt), then the texels blended in double.
+template <class Texel>
+void blend(const Footprint& f, const Texel& texel, float* o) {
+  double acc[3] = {0, 0, 0};
+  for (int q = 0; q < f.texels; ++q) {
+    const auto tv = texel(f.t[q]);
+    for (int c = 0; c < 3; ++c) acc[c] += f.tw[q] * tv[size_t(c)];
+  }
+  for (int c = 0; c < 3; ++c) o[c] = float(acc[c]);
+}
+
+std::array<float, 3> rounded(const double tv[3]) {
+  return {float(tv[0]), float(tv[1]), float(tv[2])};
+}
+
+// A unit vector's (θ, φ) as the lookups read them (its z clamped to 1).
+void angles(const double* w, double& theta, double& phi) {
+  const double len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+  theta = std::acos(std::min(1.0, w[2] / len));
+  phi = std::atan2(w[1], w[0]);
+}
+
 }  // namespace
 
 void evaluateBatch(const Decoder& d, size_t n, const double* uv, const double* wi, const double* wo,
                    float* out, const CancelToken* cancel) {
-  lookups(d.info(), n, uv, wi, wo, out, cancel,
-          [&](int64_t t, int view, int light) { return d.value(t, view, light); });
+  if (d.continuous()) {
+    // The decoder's own value at the pair itself (the neural codec), as `btfsim render` reads it.
+    lookups(d.info(), n, uv, wi, wo, out, cancel, [&](size_t k, const Footprint& f, float* o) {
+      double ti, pi, to, po;
+      angles(wi + k * 3, ti, pi);
+      angles(wo + k * 3, to, po);
+      blend(f, [&](int64_t t) { return d.evaluate(t, ti, pi, to, po); }, o);
+    });
+    return;
+  }
+  lookups(d.info(), n, uv, wi, wo, out, cancel, [&](size_t, const Footprint& f, float* o) {
+    blend(
+        f,
+        [&](int64_t t) {
+          double tv[3] = {0, 0, 0};
+          for (int p = 0; p < f.pairs; ++p) {
+            const auto x = d.value(t, f.pv[p], f.pl[p]);
+            for (int c = 0; c < 3; ++c) tv[c] += f.pw[p] * x[size_t(c)];
+          }
+          return rounded(tv);
+        },
+        o);
+  });
 }
 
 void evaluateBatch(const BtfInfo& info, const float* values, size_t n, const double* uv,
                    const double* wi, const double* wo, float* out, const CancelToken* cancel) {
-  const size_t nd = size_t(info.nDirs());
-  lookups(info, n, uv, wi, wo, out, cancel, [&](int64_t t, int view, int light) {
-    return values + ((size_t(t) * nd + size_t(view)) * nd + size_t(light)) * 3;
+  const size_t nd = size_t(info.nDirs()), stride = nd * nd * 3;
+  lookups(info, n, uv, wi, wo, out, cancel, [&](size_t, const Footprint& f, float* o) {
+    // The pairs' offsets inside a texel's values once, then each texel a run of reads.
+    size_t off[16];
+    for (int p = 0; p < f.pairs; ++p) off[p] = (size_t(f.pv[p]) * nd + size_t(f.pl[p])) * 3;
+    blend(
+        f,
+        [&](int64_t t) {
+          const float* base = values + size_t(t) * stride;
+          double t0 = 0, t1 = 0, t2 = 0;
+          for (int p = 0; p < f.pairs; ++p) {
+            const float* x = base + off[p];
+            t0 += f.pw[p] * x[0], t1 += f.pw[p] * x[1], t2 += f.pw[p] * x[2];
+          }
+          const double tv[3] = {t0, t1, t2};
+          return rounded(tv);
+        },
+        o);
   });
 }
 
@@ -122,9 +190,24 @@ std::vector<float> spatialSlice(const Decoder& d, double thetaV, double phiV, do
   const DirectionSet dirs = DirectionSet::fromName(I.directionSet);
   if (dirs.size() != I.nDirs())
     throw Error("the direction set of the BTF does not match its header");
+  std::vector<float> img(size_t(I.texels()) * 3, 0.f);
+  if (d.continuous()) {
+    // The decoder's own value at the pair itself (the neural codec), as `btfsim render` and
+    // the batched lookups read it.
+    parallelForChunks(
+        I.texels(), 256,
+        [&](int64_t t0, int64_t t1) {
+          for (int64_t t = t0; t < t1; ++t) {
+            const auto val = d.evaluate(t, thetaL, phiL, thetaV, phiV);
+            std::copy(val.begin(), val.end(), img.begin() + t * 3);
+          }
+        },
+        cancel);
+    throwIfCancelled(cancel, "slice");
+    return img;
+  }
   const auto lw = dirs.interpolate(thetaL, phiL);
   const auto vw = dirs.interpolate(thetaV, phiV);
-  std::vector<float> img(size_t(I.texels()) * 3, 0.f);
   parallelForChunks(
       I.texels(), 256,
       [&](int64_t t0, int64_t t1) {

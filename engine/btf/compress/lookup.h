@@ -15,7 +15,9 @@ namespace btf {
 /// (i + ½)/nu), wi[3k..] the light and wo[3k..] the view as unit vectors of the tile's frame (z
 /// up, φ = atan2(y, x)). out[3k..] receives the aBRDF (1/sr, linear RGB): bilinear between the
 /// four nearest texels, interpolated between the set's directions as Decoder::evaluateAt does
-/// (the same values); 0 where either direction is at or below the horizon or not finite.
+/// (the same values); 0 where either direction is at or below the horizon or not finite. A
+/// continuous decoder (Decoder::continuous(): the neural codec) is evaluated at the pair itself
+/// instead, as `btfsim render` reads it.
 void evaluateBatch(const Decoder& d, size_t n, const double* uv, const double* wi, const double* wo,
                    float* out, const CancelToken* cancel = nullptr);
 
@@ -28,8 +30,9 @@ void evaluateBatch(const BtfInfo& info, const float* values, size_t n, const dou
 std::vector<float> allValues(const Decoder& d, const CancelToken* cancel = nullptr);
 
 /// The nu × nv image of aBRDF values at view (θv, φv) and light (θl, φl), radians, interpolated
-/// between the set's directions; rows bottom first (v up), RGB: what `btfsim slice --view` writes
-/// (writeRgbImage flips it to the file's top-first order).
+/// between the set's directions (a continuous decoder, the neural codec: its own value at the pair
+/// itself); rows bottom first (v up), RGB: what `btfsim slice --view` writes (writeRgbImage flips
+/// it to the file's top-first order).
 std::vector<float> spatialSlice(const Decoder& d, double thetaV, double phiV, double thetaL,
                                 double phiL, const CancelToken* cancel = nullptr);
 
