@@ -513,6 +513,43 @@ void ExactDirect::evalView(int view, int64_t t0, int64_t t1, float* out,
   }
 }
 
+void ExactDirect::evalViewTexels(int view, const int64_t* texels, size_t n,
+                                 float* const* rows) const {
+  BTF_CHECK(m_prepared && view >= 0 && view < m_dirs.size());
+  if (n == 0) return;
+  const int64_t all = int64_t(m_nu) * m_nv;
+  // The runs of consecutive rows that hold a requested texel.
+  std::vector<uint8_t> wanted(size_t(m_nv), 0);
+  for (size_t k = 0; k < n; ++k) {
+    BTF_CHECK(texels[k] >= 0 && texels[k] < all);
+    wanted[size_t(texels[k] / m_nu)] = 1;
+  }
+  std::vector<std::pair<int, int>> runs;
+  for (int j = 0; j < m_nv; ++j)
+    if (wanted[size_t(j)]) {
+      if (!runs.empty() && runs.back().second == j)
+        runs.back().second = j + 1;
+      else
+        runs.push_back({j, j + 1});
+    }
+  thread_local std::vector<ViewFace> faces;
+  thread_local AreaRaster raster;
+  int width = 0;
+  prepareView(view, &faces, &width);
+  for (int l = 0, nL = m_dirs.size(); l < nL; ++l)
+    for (const auto& [row0, row1] : runs) {
+      rasterLight(view, l, faces, width, row0, row1, &raster);
+      for (size_t k = 0; k < n; ++k) {
+        const int i = int(texels[k] % m_nu), j = int(texels[k] / m_nu);
+        if (j < row0 || j >= row1) continue;
+        for (int c = 0; c < 3; ++c) {
+          const double v = raster.value(i, j, c);
+          rows[k][3 * size_t(l) + size_t(c)] = std::isfinite(v) && v > 0 ? float(v) : 0.0f;
+        }
+      }
+    }
+}
+
 void ExactDirect::evalPair(int view, int light, float* image) const {
   BTF_CHECK(m_prepared && view >= 0 && view < m_dirs.size() && light >= 0 &&
             light < m_dirs.size());

@@ -55,6 +55,11 @@ class ExactDirect {
   /// The flat faces' direct aBRDF of texels [t0, t1) (row-major over nu) seen from `view`, every
   /// light: texel t's light l, channel c at out[(t − t0)·texelStride + 3·l + c] (overwritten).
   void evalView(int view, int64_t t0, int64_t t1, float* out, size_t texelStride) const;
+  /// The same for n scattered texels (any order, repeats allowed): texel texels[k]'s light l,
+  /// channel c at rows[k][3·l + c] (overwritten). The view is prepared once and each light
+  /// rastered over the runs of rows that hold a texel — what a subset of the grid (a codec's
+  /// training texels, an estimate's probes) costs, instead of one whole view per texel.
+  void evalViewTexels(int view, const int64_t* texels, size_t n, float* const* rows) const;
   /// One (view, light) pair over the whole grid: image[3·(j·nu + i) + c].
   void evalPair(int view, int light, float* image) const;
 

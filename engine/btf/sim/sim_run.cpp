@@ -242,18 +242,39 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     const int64_t myN = n / R + (me < n % R ? 1 : 0);
     std::vector<float> local(size_t(myN) * stride, 0.f);
     ProgressReporter tp("training texels", myN, m_opt.progress);
-    parallelForChunks(
-        myN * nD, pt ? 1 : 8,
-        [&](int64_t b, int64_t e) {
-          for (int64_t k = b; k < e; ++k) {
-            const int64_t t = m_trainTexels[size_t((k / nD) * R + me)];
-            const int view = int(k % nD);
-            kernel.eval(int(t % m_opt.nu), int(t / m_opt.nu), view,
-                        &local[size_t(k / nD) * stride + size_t(view) * nD * 3]);
-            if (view == nD - 1) tp.add(1);
-          }
-        },
-        cancel);
+    if (kernel.exact) {
+      // Exact visibility: one item per view, every training texel of this rank at once (a
+      // texel at a time would prepare the whole view for each).
+      std::vector<int64_t> mineT(static_cast<size_t>(myN));
+      for (int64_t k = 0; k < myN; ++k) mineT[size_t(k)] = m_trainTexels[size_t(k * R + me)];
+      std::atomic<int64_t> viewsDone{0};
+      parallelForChunks(
+          nD, 1,
+          [&](int64_t b, int64_t e) {
+            std::vector<float*> rows(static_cast<size_t>(myN));
+            for (int64_t v = b; v < e; ++v) {
+              for (int64_t k = 0; k < myN; ++k)
+                rows[size_t(k)] = &local[size_t(k) * stride + size_t(v) * nD * 3];
+              kernel.evalExactTexels(mineT.data(), size_t(myN), int(v), rows.data());
+              const int64_t before = viewsDone.fetch_add(1);
+              tp.add((before + 1) * myN / nD - before * myN / nD);
+            }
+          },
+          cancel);
+    } else {
+      parallelForChunks(
+          myN * nD, pt ? 1 : 8,
+          [&](int64_t b, int64_t e) {
+            for (int64_t k = b; k < e; ++k) {
+              const int64_t t = m_trainTexels[size_t((k / nD) * R + me)];
+              const int view = int(k % nD);
+              kernel.eval(int(t % m_opt.nu), int(t / m_opt.nu), view,
+                          &local[size_t(k / nD) * stride + size_t(view) * nD * 3]);
+              if (view == nD - 1) tp.add(1);
+            }
+          },
+          cancel);
+    }
     throwIfCancelled(cancel, "training texels");
     tp.finish();
     if (!dist) {

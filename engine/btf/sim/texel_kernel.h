@@ -145,6 +145,27 @@ struct TexelKernel {
     return n;
   }
 
+  /// n scattered texels seen from `view` (texel texels[k]'s row of lights at rows[k]), with
+  /// exact visibility prepared once for all of them: every value equals eval's.
+  int64_t evalExactTexels(const int64_t* texels, size_t n, int view, float* const* rows) const {
+    exact->evalViewTexels(view, texels, n, rows);
+    int64_t count = 0;
+    if (exact->allFlat() && !gather) return count;
+    const int nL = dirs.size();
+    const int nu = maps.grid().nu;
+    thread_local std::vector<float> row;
+    row.resize(size_t(nL) * 3);
+    for (size_t k = 0; k < n; ++k) {
+      const int i = int(texels[k] % nu), j = int(texels[k] / nu);
+      if (!exact->allFlat()) {
+        count += direct.evalTexelView(i, j, view, row.data());
+        for (size_t q = 0; q < row.size(); ++q) rows[k][q] += row[q];
+      }
+      if (gather) addGather(i, j, view, rows[k]);
+    }
+    return count;
+  }
+
   // The network's final gather at texel (i, j)'s samples, added to its row.
   void addGather(int i, int j, int view, float* out) const {
     const SampleGrid& g = maps.grid();
