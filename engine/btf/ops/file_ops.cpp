@@ -4,6 +4,8 @@
 #include <btf/compress/export.h>
 #include <btf/compress/lookup.h>
 #include <btf/compress/mip.h>
+#include <btf/core/parallel.h>
+#include <btf/core/progress.h>
 #include <btf/core/rng.h>
 #include <btf/core/sysinfo.h>
 #include <btf/directions/direction_set.h>
@@ -552,26 +554,10 @@ void slice(const Call& c) {
     c.rep.summary = "wrote " + out;
     return;
   }
-  // The texel's (or the tile average's) views × lights matrix, reduced to the chosen light.
-  std::vector<float> perView(size_t(n) * 3, 0.f);
-  std::vector<float> m(size_t(n) * n * 3);
-  auto accumulate = [&](const float* mm, float w) {
-    for (int v = 0; v < n; ++v)
-      for (const auto& l : lw)
-        for (int k = 0; k < 3; ++k)
-          perView[size_t(v) * 3 + size_t(k)] +=
-              w * float(l.weight) * mm[(size_t(v) * size_t(n) + size_t(l.index)) * 3 + size_t(k)];
-  };
-  std::string what;
-  if (texel == "avg") {
-    const float w = 1.0f / float(I.texels());
-    for (int64_t t = 0; t < I.texels(); ++t) {
-      if (t % 64 == 0) c.ctx.check("slice");
-      d->texel(t, m.data());
-      accumulate(m.data(), w);
-    }
-    what = "tile average";
-  } else {
+  // One texel, or every texel (the tile average).
+  int64_t one = -1;
+  std::string what = "tile average";
+  if (texel != "avg") {
     int u = 0, v = 0;
     char comma = 0, extra = 0;
     if (std::sscanf(texel.c_str(), "%d%c%d%c", &u, &comma, &v, &extra) != 3 || comma != ',')
@@ -579,25 +565,81 @@ void slice(const Call& c) {
     if (u < 0 || v < 0 || u >= I.nu || v >= I.nv)
       throw Error("invalid --texel '" + texel + "': outside the " + std::to_string(I.nu) + "x" +
                   std::to_string(I.nv) + " texel grid");
-    d->texel(int64_t(v) * I.nu + u, m.data());
-    accumulate(m.data(), 1.0f);
+    one = int64_t(v) * I.nu + u;
     what = "texel " + texel;
   }
   // Orthographic hemisphere: pixel (x, y) in the unit disk ↦ view with sinθ = r, φ = atan2(y, x);
   // +x to the right, +y up; outside the disk is black.
   const int S = r.i("size");
   std::vector<float> img(size_t(S) * S * 3, 0.f);
-  for (int jj = 0; jj < S; ++jj)
-    for (int i = 0; i < S; ++i) {
-      const double x = (i + 0.5) / S * 2 - 1, y = (jj + 0.5) / S * 2 - 1;
-      const double rr = std::sqrt(x * x + y * y);
-      if (rr > 1) continue;
-      const auto vw = dirs.interpolate(std::asin(std::min(rr, 1.0)), std::atan2(y, x));
-      for (const auto& v : vw)
-        for (int k = 0; k < 3; ++k)
-          img[(size_t(jj) * S + size_t(i)) * 3 + size_t(k)] +=
-              float(v.weight) * perView[size_t(v.index) * 3 + size_t(k)];
+  auto pixelView = [S](int i, int jj, double* theta, double* phi) {
+    const double x = (i + 0.5) / S * 2 - 1, y = (jj + 0.5) / S * 2 - 1;
+    const double rr = std::sqrt(x * x + y * y);
+    if (rr > 1) return false;
+    *theta = std::asin(std::min(rr, 1.0)), *phi = std::atan2(y, x);
+    return true;
+  };
+  if (d->continuous()) {
+    // The decoder's own value at each pixel's view and the light itself (the neural codec), as
+    // `slice --view` and the batched lookups read it — not interpolated between set directions.
+    const int64_t t0 = one >= 0 ? one : 0, t1 = one >= 0 ? one + 1 : I.texels();
+    const double w = 1.0 / double(t1 - t0), tlr = deg2rad(tl), plr = deg2rad(pl);
+    ProgressReporter pr("slice", S, c.progress());
+    parallelForChunks(
+        S, 1,
+        [&](int64_t j0, int64_t j1) {
+          for (int64_t jj = j0; jj < j1; ++jj) {
+            for (int i = 0; i < S; ++i) {
+              double th, ph;
+              if (!pixelView(i, int(jj), &th, &ph)) continue;
+              double acc[3] = {0, 0, 0};
+              for (int64_t t = t0; t < t1; ++t) {
+                const auto val = d->evaluate(t, tlr, plr, th, ph);
+                for (int k = 0; k < 3; ++k) acc[k] += val[size_t(k)];
+              }
+              for (int k = 0; k < 3; ++k)
+                img[(size_t(jj) * S + size_t(i)) * 3 + size_t(k)] = float(acc[k] * w);
+            }
+            pr.add(1);
+          }
+        },
+        c.ctx.cancel);
+    c.ctx.check("slice");
+    pr.finish();
+  } else {
+    // The texel's (or the tile average's) views × lights matrix, reduced to the chosen light,
+    // then interpolated between the set's views.
+    std::vector<float> perView(size_t(n) * 3, 0.f);
+    std::vector<float> m(size_t(n) * n * 3);
+    auto accumulate = [&](const float* mm, float w) {
+      for (int v = 0; v < n; ++v)
+        for (const auto& l : lw)
+          for (int k = 0; k < 3; ++k)
+            perView[size_t(v) * 3 + size_t(k)] +=
+                w * float(l.weight) * mm[(size_t(v) * size_t(n) + size_t(l.index)) * 3 + size_t(k)];
+    };
+    if (one < 0) {
+      const float w = 1.0f / float(I.texels());
+      for (int64_t t = 0; t < I.texels(); ++t) {
+        if (t % 64 == 0) c.ctx.check("slice");
+        d->texel(t, m.data());
+        accumulate(m.data(), w);
+      }
+    } else {
+      d->texel(one, m.data());
+      accumulate(m.data(), 1.0f);
     }
+    for (int jj = 0; jj < S; ++jj)
+      for (int i = 0; i < S; ++i) {
+        double th, ph;
+        if (!pixelView(i, jj, &th, &ph)) continue;
+        const auto vw = dirs.interpolate(th, ph);
+        for (const auto& v : vw)
+          for (int k = 0; k < 3; ++k)
+            img[(size_t(jj) * S + size_t(i)) * 3 + size_t(k)] +=
+                float(v.weight) * perView[size_t(v.index) * 3 + size_t(k)];
+      }
+  }
   meta.push_back({"texel", texel});
   writeRgbImage(out, S, S, img, scale, true, meta);
   res.kind = "hemisphere";

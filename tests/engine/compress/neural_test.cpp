@@ -7,6 +7,7 @@
 #include <btf/core/error.h>
 #include <btf/core/run_context.h>
 #include <btf/directions/direction_set.h>
+#include <btf/io/image_io.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <tbb/task_arena.h>
@@ -128,7 +129,8 @@ TEST(Neural, CompareAtAnotherDirectionSetEvaluatesTheFileThere) {
   const std::string off =
       writeRaw((dir / "off.btf").string(), other, analyticValues(other, true));
   const std::string file = (dir / "set.cbtf").string();
-  writeCompressed(file, compressStore(raw, neural(1500), false, nullptr, nullptr));
+  const CompressedBtf cb = compressStore(raw, neural(1500), false, nullptr, nullptr);
+  writeCompressed(file, cb);
   std::string out;
   ASSERT_EQ(runBtfsim("compare " + off + " " + file + " --json -q", &out), 0) << out;
   const auto j = nlohmann::json::parse(out.substr(out.find('{')));
@@ -141,6 +143,44 @@ TEST(Neural, CompareAtAnotherDirectionSetEvaluatesTheFileThere) {
   ASSERT_EQ(runBtfsim("compare " + off + " " + raw + " --json -q", &out), 0) << out;
   EXPECT_EQ(nlohmann::json::parse(out.substr(out.find('{'))).at("b_at_a_directions"),
             "interpolated");
+  // The hemisphere slice of one texel and of the tile average is the network's own value at
+  // each pixel's view (sin θ = r) and the light, not interpolated between the set's views.
+  const auto dec = makeDecoder(cb);
+  for (const std::string texel : {"1,1", "avg"}) {
+    SCOPED_TRACE(texel);
+    const std::string img = (dir / "h.exr").string();
+    ASSERT_EQ(runBtfsim("slice " + file + " --texel " + texel + " --light 20,40 --size 24 -q -o " +
+                            img,
+                        &out),
+              0)
+        << out;
+    int w = 0, h = 0;
+    const auto px = readRgbImage(img, &w, &h);
+    ASSERT_EQ(w, 24);
+    ASSERT_EQ(h, 24);
+    int inside = 0;
+    for (int row = 0; row < h; ++row)
+      for (int i = 0; i < w; ++i) {
+        const int jj = h - 1 - row;  // rows top first, +y up
+        const double x = (i + 0.5) / w * 2 - 1, y = (jj + 0.5) / h * 2 - 1;
+        const double rr = std::hypot(x, y);
+        const float* p = &px[(size_t(row) * w + size_t(i)) * 3];
+        if (rr > 1) {
+          EXPECT_EQ(p[0], 0.0f);
+          continue;
+        }
+        ++inside;
+        double want[3] = {0, 0, 0};
+        const int64_t t0 = texel == "avg" ? 0 : 4, t1 = texel == "avg" ? 9 : 5;
+        for (int64_t t = t0; t < t1; ++t) {
+          const auto v = dec->evaluate(t, 20 * M_PI / 180, 40 * M_PI / 180, std::asin(rr),
+                                       std::atan2(y, x));
+          for (int c = 0; c < 3; ++c) want[c] += v[size_t(c)] / double(t1 - t0);
+        }
+        for (int c = 0; c < 3; ++c) ASSERT_NEAR(p[c], want[c], 1e-5 * want[c] + 1e-7);
+      }
+    EXPECT_GT(inside, 400);
+  }
   // Other texel grids are still refused.
   const BtfInfo grid = syntheticInfo(2, 3, "5x10");
   const std::string small =
