@@ -8,19 +8,74 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace btf {
 
 namespace {
 
-// Up to four set directions around a unit vector; 0 when it is at or below the horizon.
-int weightsOf(const DirectionSet& dirs, const double* w, DirWeight out[4]) {
-  if (!(std::isfinite(w[0]) && std::isfinite(w[1]) && std::isfinite(w[2]))) return 0;
-  const double len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-  if (!(len > 0) || w[2] / len <= 0) return 0;
-  const double z = std::min(1.0, w[2] / len);
-  return dirs.interpolate(std::acos(z), std::atan2(w[1], w[0]), out);
-}
+// The set's rings as the lookups walk them: DirectionSet::interpolate's weights without its
+// integer divisions (a ring's azimuth wraps by a multiply and a compare).
+class Rings {
+ public:
+  explicit Rings(const DirectionSet& d) {
+    for (const DirectionRing& r : d.rings())
+      m_r.push_back({r.theta, r.phiOffset, double(r.count) / (2 * kPi), 1.0 / double(r.count),
+                     r.count, r.first});
+  }
+
+  // Up to four set directions around a unit vector; 0 when it is at or below the horizon.
+  int weights(const double* w, DirWeight out[4]) const {
+    if (!(std::isfinite(w[0]) && std::isfinite(w[1]) && std::isfinite(w[2]))) return 0;
+    const double len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    if (!(len > 0) || w[2] / len <= 0) return 0;
+    const double theta = std::acos(std::min(1.0, w[2] / len));
+    const size_t nr = m_r.size();
+    const Ring *a = &m_r.front(), *b = nullptr;
+    double f = 0;
+    if (theta <= m_r.front().theta || nr == 1) {
+    } else if (theta >= m_r.back().theta) {
+      a = &m_r.back();
+    } else {
+      size_t r = 0;
+      while (r + 1 < nr && m_r[r + 1].theta < theta) ++r;
+      a = &m_r[r], b = &m_r[r + 1];
+      f = (theta - a->theta) / (b->theta - a->theta);
+    }
+    // φ once, and only where a ring has more than one direction.
+    const double phi = a->count > 1 || (b && b->count > 1) ? std::atan2(w[1], w[0]) : 0.0;
+    int n = 0;
+    inRing(*a, 1 - f, phi, out, n);
+    if (b && f > 0) inRing(*b, f, phi, out, n);
+    return n;
+  }
+
+ private:
+  struct Ring {
+    double theta, offset, perRad, invCount;
+    int count, first;
+  };
+  static void inRing(const Ring& r, double wRing, double phi, DirWeight* out, int& n) {
+    if (r.count == 1) {
+      out[n++] = {r.first, wRing};
+      return;
+    }
+    double x = (phi - r.offset) * r.perRad;
+    x -= std::floor(x * r.invCount) * r.count;  // wrap into [0, count)
+    int j0 = int(x);
+    const double f = x - j0;
+    if (j0 >= r.count) j0 -= r.count;  // x rounded up to count
+    if (j0 < 0) j0 = 0;
+    const int j1 = j0 + 1 == r.count ? 0 : j0 + 1;
+    out[n++] = {r.first + j0, wRing * (1 - f)};
+    if (f > 0) out[n++] = {r.first + j1, wRing * f};
+  }
+  std::vector<Ring> m_r;
+};
 
 int64_t wrap(int64_t i, int n) {
   const int64_t r = i % n;
@@ -41,34 +96,52 @@ struct Footprint {
   int texels = 0;
   int64_t t[4];
   double tw[4];
+  bool cached = false;  // pairs hold the weights of directions wi, wo
+  double wi[3], wo[3];
 };
 
-bool footprint(const BtfInfo& I, const DirectionSet& dirs, const double* uv, const double* wi,
+bool footprint(const BtfInfo& I, const Rings& rings, const double* uv, const double* wi,
                const double* wo, Footprint& f) {
-  DirWeight wl[4], wv[4];
-  const int nl = weightsOf(dirs, wi, wl);
-  const int nv = nl ? weightsOf(dirs, wo, wv) : 0;
   const double u = uv[0], v = uv[1];
-  if (!nv || !std::isfinite(u) || !std::isfinite(v)) return false;
-  f.pairs = 0;
-  for (int a = 0; a < nv; ++a)
-    for (int b = 0; b < nl; ++b) {
-      const double ww = wv[a].weight * wl[b].weight;
-      if (ww == 0) continue;
-      f.pw[f.pairs] = ww, f.pv[f.pairs] = wv[a].index, f.pl[f.pairs++] = wl[b].index;
-    }
+  if (!std::isfinite(u) || !std::isfinite(v)) return false;
+  // The directions of the lookup before (a directional light and an orthographic camera over a
+  // flat surface ask every pixel at the same pair): its pairs and weights again.
+  if (!(f.cached && std::memcmp(wi, f.wi, sizeof f.wi) == 0 &&
+        std::memcmp(wo, f.wo, sizeof f.wo) == 0)) {
+    f.cached = false;
+    DirWeight wl[4], wv[4];
+    const int nl = rings.weights(wi, wl);
+    const int nv = nl ? rings.weights(wo, wv) : 0;
+    if (!nv) return false;
+    f.pairs = 0;
+    for (int a = 0; a < nv; ++a)
+      for (int b = 0; b < nl; ++b) {
+        const double ww = wv[a].weight * wl[b].weight;
+        if (ww == 0) continue;
+        f.pw[f.pairs] = ww, f.pv[f.pairs] = wv[a].index, f.pl[f.pairs++] = wl[b].index;
+      }
+    std::memcpy(f.wi, wi, sizeof f.wi);
+    std::memcpy(f.wo, wo, sizeof f.wo);
+    f.cached = true;
+  }
   // As Decoder::evaluateAt: texel centres at integer + ½, bilinear over four texels.
   const double fx = (u - std::floor(u)) * I.nu - 0.5;
   const double fy = (v - std::floor(v)) * I.nv - 0.5;
   const double x0 = std::floor(fx), y0 = std::floor(fy);
   const double ax = fx - x0, ay = fy - y0;
+  // Columns x0 and x0 + 1 and rows y0 and y0 + 1, wrapped (x0 ≥ −1: one compare each).
+  int64_t cx[2] = {int64_t(x0), int64_t(x0) + 1}, cy[2] = {int64_t(y0), int64_t(y0) + 1};
+  for (int k = 0; k < 2; ++k) {
+    if (cx[k] < 0 || cx[k] >= I.nu) cx[k] = wrap(cx[k], I.nu);
+    if (cy[k] < 0 || cy[k] >= I.nv) cy[k] = wrap(cy[k], I.nv);
+  }
   f.texels = 0;
   for (int j = 0; j < 2; ++j)
     for (int i = 0; i < 2; ++i) {
       const double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
       if (w == 0) continue;
       f.tw[f.texels] = w;
-      f.t[f.texels++] = wrap(int64_t(x0) + i, I.nu) + int64_t(I.nu) * wrap(int64_t(y0) + j, I.nv);
+      f.t[f.texels++] = cx[i] + int64_t(I.nu) * cy[j];
     }
   return true;
 }
@@ -80,6 +153,7 @@ void lookups(const BtfInfo& I, size_t n, const double* uv, const double* wi, con
   const DirectionSet dirs = DirectionSet::fromName(I.directionSet);
   if (dirs.size() != I.nDirs())
     throw Error("the direction set of the BTF does not match its header");
+  const Rings rings(dirs);
   parallelForChunks(
       int64_t(n), 4096,
       [&](int64_t k0, int64_t k1) {
@@ -87,7 +161,7 @@ void lookups(const BtfInfo& I, size_t n, const double* uv, const double* wi, con
         for (int64_t k = k0; k < k1; ++k) {
           float* o = out + size_t(k) * 3;
           o[0] = o[1] = o[2] = 0.f;
-          if (footprint(I, dirs, uv + size_t(k) * 2, wi + size_t(k) * 3, wo + size_t(k) * 3, f))
+          if (footprint(I, rings, uv + size_t(k) * 2, wi + size_t(k) * 3, wo + size_t(k) * 3, f))
             one(size_t(k), f, o);
         }
       },
@@ -150,23 +224,40 @@ void evaluateBatch(const Decoder& d, size_t n, const double* uv, const double* w
 void evaluateBatch(const BtfInfo& info, const float* values, size_t n, const double* uv,
                    const double* wi, const double* wo, float* out, const CancelToken* cancel) {
   const size_t nd = size_t(info.nDirs()), stride = nd * nd * 3;
+  const float* end = values + size_t(info.texels()) * stride;
   lookups(info, n, uv, wi, wo, out, cancel, [&](size_t, const Footprint& f, float* o) {
-    // The pairs' offsets inside a texel's values once, then each texel a run of reads.
+    // Every (texel, pair) term at once in float, four lanes a value (RGB and the next value's
+    // first channel, ignored): up to 4 × 16 reads of 16 bytes, one multiply-add each.
     size_t off[16];
     for (int p = 0; p < f.pairs; ++p) off[p] = (size_t(f.pv[p]) * nd + size_t(f.pl[p])) * 3;
-    blend(
-        f,
-        [&](int64_t t) {
-          const float* base = values + size_t(t) * stride;
-          double t0 = 0, t1 = 0, t2 = 0;
-          for (int p = 0; p < f.pairs; ++p) {
-            const float* x = base + off[p];
-            t0 += f.pw[p] * x[0], t1 += f.pw[p] * x[1], t2 += f.pw[p] * x[2];
-          }
-          const double tv[3] = {t0, t1, t2};
-          return rounded(tv);
-        },
-        o);
+#if defined(__SSE2__)
+    __m128 acc = _mm_setzero_ps();
+    for (int q = 0; q < f.texels; ++q) {
+      const float* base = values + size_t(f.t[q]) * stride;
+      for (int p = 0; p < f.pairs; ++p) {
+        const float* x = base + off[p];
+        const __m128 w = _mm_set1_ps(float(f.tw[q] * f.pw[p]));
+        // The store's last value has no fourth float after it: read it lane by lane.
+        const __m128 v = x + 4 <= end ? _mm_loadu_ps(x) : _mm_setr_ps(x[0], x[1], x[2], 0.f);
+        acc = _mm_add_ps(acc, _mm_mul_ps(w, v));
+      }
+    }
+    alignas(16) float r[4];
+    _mm_store_ps(r, acc);
+    o[0] = r[0], o[1] = r[1], o[2] = r[2];
+#else
+    float a0 = 0, a1 = 0, a2 = 0;
+    for (int q = 0; q < f.texels; ++q) {
+      const float* base = values + size_t(f.t[q]) * stride;
+      for (int p = 0; p < f.pairs; ++p) {
+        const float* x = base + off[p];
+        const float w = float(f.tw[q] * f.pw[p]);
+        a0 += w * x[0], a1 += w * x[1], a2 += w * x[2];
+      }
+    }
+    o[0] = a0, o[1] = a1, o[2] = a2;
+    (void)end;
+#endif
   });
 }
 
