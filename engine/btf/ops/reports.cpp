@@ -64,6 +64,7 @@ Json json(const SimulateResult& r) {
     j["hit_map_seconds"] = s.hitMapSeconds;
     j["abrdf_seconds"] = s.abrdfSeconds;
     j["write_seconds"] = s.writeSeconds;
+    j["exact_visibility_seconds"] = s.exactVisibilitySeconds;
     j["hit_map_rays"] = s.hitMapRays;
     j["rays_per_second"] = s.raysPerSecond;
     j["abrdf_values"] = s.abrdfValues;

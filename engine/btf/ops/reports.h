@@ -75,6 +75,7 @@ struct SimulateResult {
     double abrdfEvaluationsPerSecond = 0;
     uint64_t brdfEvaluations = 0, peakMemoryBytes = 0, outputBytes = 0;
     int chunks = 0, chunksResumed = 0;
+    double exactVisibilitySeconds = 0;  // the exact mode's hidden-surface removal (in wall)
   };
   /// --compress: the values went straight into a codec (with --mip: a pyramid).
   struct Compressed {
