@@ -18,64 +18,14 @@ namespace btf {
 
 namespace {
 
-// The set's rings as the lookups walk them: DirectionSet::interpolate's weights without its
-// integer divisions (a ring's azimuth wraps by a multiply and a compare).
-class Rings {
- public:
-  explicit Rings(const DirectionSet& d) {
-    for (const DirectionRing& r : d.rings())
-      m_r.push_back({r.theta, r.phiOffset, double(r.count) / (2 * kPi), 1.0 / double(r.count),
-                     r.count, r.first});
-  }
-
-  // Up to four set directions around a unit vector; 0 when it is at or below the horizon.
-  int weights(const double* w, DirWeight out[4]) const {
-    if (!(std::isfinite(w[0]) && std::isfinite(w[1]) && std::isfinite(w[2]))) return 0;
-    const double len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-    if (!(len > 0) || w[2] / len <= 0) return 0;
-    const double theta = std::acos(std::min(1.0, w[2] / len));
-    const size_t nr = m_r.size();
-    const Ring *a = &m_r.front(), *b = nullptr;
-    double f = 0;
-    if (theta <= m_r.front().theta || nr == 1) {
-    } else if (theta >= m_r.back().theta) {
-      a = &m_r.back();
-    } else {
-      size_t r = 0;
-      while (r + 1 < nr && m_r[r + 1].theta < theta) ++r;
-      a = &m_r[r], b = &m_r[r + 1];
-      f = (theta - a->theta) / (b->theta - a->theta);
-    }
-    // φ once, and only where a ring has more than one direction.
-    const double phi = a->count > 1 || (b && b->count > 1) ? std::atan2(w[1], w[0]) : 0.0;
-    int n = 0;
-    inRing(*a, 1 - f, phi, out, n);
-    if (b && f > 0) inRing(*b, f, phi, out, n);
-    return n;
-  }
-
- private:
-  struct Ring {
-    double theta, offset, perRad, invCount;
-    int count, first;
-  };
-  static void inRing(const Ring& r, double wRing, double phi, DirWeight* out, int& n) {
-    if (r.count == 1) {
-      out[n++] = {r.first, wRing};
-      return;
-    }
-    double x = (phi - r.offset) * r.perRad;
-    x -= std::floor(x * r.invCount) * r.count;  // wrap into [0, count)
-    int j0 = int(x);
-    const double f = x - j0;
-    if (j0 >= r.count) j0 -= r.count;  // x rounded up to count
-    if (j0 < 0) j0 = 0;
-    const int j1 = j0 + 1 == r.count ? 0 : j0 + 1;
-    out[n++] = {r.first + j0, wRing * (1 - f)};
-    if (f > 0) out[n++] = {r.first + j1, wRing * f};
-  }
-  std::vector<Ring> m_r;
-};
+// Up to four set directions around a unit vector; 0 when it is at or below the horizon.
+int weightsOf(const DirectionSet& dirs, const double* w, DirWeight out[4]) {
+  if (!(std::isfinite(w[0]) && std::isfinite(w[1]) && std::isfinite(w[2]))) return 0;
+  const double len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+  if (!(len > 0) || w[2] / len <= 0) return 0;
+  const double z = std::min(1.0, w[2] / len);
+  return dirs.interpolate(std::acos(z), std::atan2(w[1], w[0]), out);
+}
 
 int64_t wrap(int64_t i, int n) {
   const int64_t r = i % n;
@@ -100,7 +50,7 @@ struct Footprint {
   double wi[3], wo[3];
 };
 
-bool footprint(const BtfInfo& I, const Rings& rings, const double* uv, const double* wi,
+bool footprint(const BtfInfo& I, const DirectionSet& dirs, const double* uv, const double* wi,
                const double* wo, Footprint& f) {
   const double u = uv[0], v = uv[1];
   if (!std::isfinite(u) || !std::isfinite(v)) return false;
@@ -110,8 +60,8 @@ bool footprint(const BtfInfo& I, const Rings& rings, const double* uv, const dou
         std::memcmp(wo, f.wo, sizeof f.wo) == 0)) {
     f.cached = false;
     DirWeight wl[4], wv[4];
-    const int nl = rings.weights(wi, wl);
-    const int nv = nl ? rings.weights(wo, wv) : 0;
+    const int nl = weightsOf(dirs, wi, wl);
+    const int nv = nl ? weightsOf(dirs, wo, wv) : 0;
     if (!nv) return false;
     f.pairs = 0;
     for (int a = 0; a < nv; ++a)
@@ -153,7 +103,6 @@ void lookups(const BtfInfo& I, size_t n, const double* uv, const double* wi, con
   const DirectionSet dirs = DirectionSet::fromName(I.directionSet);
   if (dirs.size() != I.nDirs())
     throw Error("the direction set of the BTF does not match its header");
-  const Rings rings(dirs);
   parallelForChunks(
       int64_t(n), 4096,
       [&](int64_t k0, int64_t k1) {
@@ -161,7 +110,7 @@ void lookups(const BtfInfo& I, size_t n, const double* uv, const double* wi, con
         for (int64_t k = k0; k < k1; ++k) {
           float* o = out + size_t(k) * 3;
           o[0] = o[1] = o[2] = 0.f;
-          if (footprint(I, rings, uv + size_t(k) * 2, wi + size_t(k) * 3, wo + size_t(k) * 3, f))
+          if (footprint(I, dirs, uv + size_t(k) * 2, wi + size_t(k) * 3, wo + size_t(k) * 3, f))
             one(size_t(k), f, o);
         }
       },

@@ -102,18 +102,9 @@ struct TexelKernel {
     }
     if (exact) {
       // One texel of the exact view (the run goes view by view over whole chunks instead).
-      thread_local std::vector<float> ex;
-      ex.assign(size_t(nL) * 3, 0.f);
       const int64_t t = int64_t(j) * g.nu + i;
-      exact->evalView(view, t, t + 1, ex.data(), 0);
-      int64_t n = 0;
-      if (exact->allFlat())
-        std::fill(out, out + size_t(nL) * 3, 0.f);
-      else
-        n = direct.evalTexelView(i, j, view, out);
-      for (size_t k = 0; k < ex.size(); ++k) out[k] += ex[k];
-      if (gather) addGather(i, j, view, out);
-      return n;
+      exact->evalView(view, t, t + 1, out, 0);  // overwrites the row
+      return addBesideExact(i, j, view, out);
     }
     const int64_t n = direct.evalTexelView(i, j, view, out);
     if (gather) addGather(i, j, view, out);
@@ -131,17 +122,8 @@ struct TexelKernel {
     exact->evalView(view, t0, t1, base, texelStride);
     int64_t n = 0;
     if (exact->allFlat() && !gather) return n;
-    thread_local std::vector<float> row;
-    row.resize(size_t(nL) * 3);
-    for (int64_t t = t0; t < t1; ++t) {
-      float* o = base + size_t(t - t0) * texelStride;
-      const int i = int(t % nu), j = int(t / nu);
-      if (!exact->allFlat()) {
-        n += direct.evalTexelView(i, j, view, row.data());
-        for (size_t k = 0; k < row.size(); ++k) o[k] += row[k];
-      }
-      if (gather) addGather(i, j, view, o);
-    }
+    for (int64_t t = t0; t < t1; ++t)
+      n += addBesideExact(int(t % nu), int(t / nu), view, base + size_t(t - t0) * texelStride);
     return n;
   }
 
@@ -151,19 +133,24 @@ struct TexelKernel {
     exact->evalViewTexels(view, texels, n, rows);
     int64_t count = 0;
     if (exact->allFlat() && !gather) return count;
-    const int nL = dirs.size();
     const int nu = maps.grid().nu;
-    thread_local std::vector<float> row;
-    row.resize(size_t(nL) * 3);
-    for (size_t k = 0; k < n; ++k) {
-      const int i = int(texels[k] % nu), j = int(texels[k] / nu);
-      if (!exact->allFlat()) {
-        count += direct.evalTexelView(i, j, view, row.data());
-        for (size_t q = 0; q < row.size(); ++q) rows[k][q] += row[q];
-      }
-      if (gather) addGather(i, j, view, rows[k]);
-    }
+    for (size_t k = 0; k < n; ++k)
+      count += addBesideExact(int(texels[k] % nu), int(texels[k] / nu), view, rows[k]);
     return count;
+  }
+
+  /// What the exact view leaves to texel (i, j)'s row: the smooth faces' sampled direct light
+  /// and the gather, added to `out`. Returns the sampled kernel's BRDF evaluations.
+  int64_t addBesideExact(int i, int j, int view, float* out) const {
+    int64_t n = 0;
+    if (!exact->allFlat()) {
+      thread_local std::vector<float> row;
+      row.resize(size_t(dirs.size()) * 3);
+      n = direct.evalTexelView(i, j, view, row.data());
+      for (size_t k = 0; k < row.size(); ++k) out[k] += row[k];
+    }
+    if (gather) addGather(i, j, view, out);
+    return n;
   }
 
   // The network's final gather at texel (i, j)'s samples, added to its row.
