@@ -97,6 +97,26 @@ def test_a_neural_file_is_read_at_the_pair_itself_not_interpolated(files):
                                rtol=1e-5, atol=1e-7)
 
 
+@pytest.mark.parametrize("kind", ["raw", "neural"])
+def test_a_batch_of_runs_at_one_pair_equals_the_lookups_one_by_one(files, kind):
+    """Lookups reuse the direction weights of the lookup before when its directions are the
+    same: runs of one pair (a directional light and an orthographic camera), broken by a
+    below-horizon lookup and by directions that differ in the last bit, read as one at a time."""
+    b = btfstudio.open(files[kind])
+    rng = np.random.default_rng(7)
+    n = 240
+    uv = rng.random((n, 2)) * 3 - 1
+    pairs = np.array([[0.3, 0.2, 0.93, -0.5, 0.1, 0.86], [0.1, -0.6, 0.79, 0.2, 0.2, 0.96]])
+    run = np.repeat(np.arange(n // 20) % 2, 20)
+    wi, wo = pairs[run, :3].copy(), pairs[run, 3:].copy()
+    wi[45] = [0.0, 0.0, -1.0]  # below the horizon inside a run
+    wo[101] = np.nextafter(wo[101], 2.0)  # one ulp away: not the pair before
+    got = b.values(uv, wi, wo)
+    one = np.concatenate([b.values(uv[k:k + 1], wi[k:k + 1], wo[k:k + 1]) for k in range(n)])
+    np.testing.assert_allclose(got, one, rtol=1e-6, atol=1e-9)
+    assert np.all(got[45] == 0) and np.all(got[46] > 0)
+
+
 def test_lookups_below_the_horizon_or_not_finite_are_zero_never_nan(files):
     b = btfstudio.open(files["raw"])
     up = [0.0, 0.0, 1.0]

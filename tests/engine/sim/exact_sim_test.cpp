@@ -6,6 +6,7 @@
 #include <btf/scene/scene.h>
 #include <btf/sim/simulator.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstring>
@@ -192,6 +193,13 @@ TEST(ExactSim, KilledRunResumesToTheSameBytes) {
             0)
       << out;
   EXPECT_NE(out.find("\"visibility\": \"exact\""), std::string::npos) << out;
+  {
+    // The hidden-surface removal's own time is reported, as a part of the wall time.
+    const auto j = nlohmann::json::parse(out.substr(out.find('{')));
+    const double ex = j.at("exact_visibility_seconds").get<double>();
+    EXPECT_GE(ex, 0) << out;
+    EXPECT_LE(ex, j.at("wall_seconds").get<double>()) << out;
+  }
   const std::string part = (dir / "cut.btf").string();
   EXPECT_EQ(test::runBtfsim("simulate " + scene + " -o " + part + common, &out,
                             "BTF_TEST_ABORT_AFTER_CHUNKS=2"),
