@@ -124,6 +124,9 @@ Opts effectOptions() {
       in("gather_occlusion", 16, 0, 1024,
          "rays per gathered hit measuring its own occluded fraction; the network's irradiance "
          "is scaled by it over the points' (0 = off)"),
+      en("reciprocal_gather", "on", {"on", "off"},
+         "scale the network's gathered light per (view, light) so that its tile average obeys "
+         "reciprocity: the mean of the (v, l) and (l, v) estimates (docs/gi.md)"),
       in("paths", 16, 1, 4096, "--method pt: paths per texel sample"),
   };
 }

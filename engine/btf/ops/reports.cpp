@@ -65,6 +65,8 @@ Json json(const SimulateResult& r) {
     j["abrdf_seconds"] = s.abrdfSeconds;
     j["write_seconds"] = s.writeSeconds;
     j["exact_visibility_seconds"] = s.exactVisibilitySeconds;
+    j["reciprocal_gather_seconds"] = s.reciprocalGatherSeconds;
+    j["reciprocal_gather_max_correction"] = s.reciprocalGatherMaxCorrection;
     j["hit_map_rays"] = s.hitMapRays;
     j["rays_per_second"] = s.raysPerSecond;
     j["abrdf_values"] = s.abrdfValues;

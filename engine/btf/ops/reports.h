@@ -76,6 +76,8 @@ struct SimulateResult {
     uint64_t brdfEvaluations = 0, peakMemoryBytes = 0, outputBytes = 0;
     int chunks = 0, chunksResumed = 0;
     double exactVisibilitySeconds = 0;  // the exact mode's hidden-surface removal (in wall)
+    // The reciprocal gather's tile sums (in wall) and the largest per-pair correction it made.
+    double reciprocalGatherSeconds = 0, reciprocalGatherMaxCorrection = 0;
   };
   /// --compress: the values went straight into a codec (with --mip: a pyramid).
   struct Compressed {

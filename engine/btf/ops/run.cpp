@@ -126,6 +126,7 @@ SimOptions simOptions(const Scene& scene, const Request& r) {
     o.network.links = r.i("links");
     o.network.gather = r.i("gather");
     o.network.gatherOcclusion = r.i("gather_occlusion");
+    o.reciprocalGather = r.s("reciprocal_gather") == "on";
     o.ptPaths = r.i("paths");
   }
   if (r.has("chunk_texels")) o.maxChunkTexels = r.i("chunk_texels");

@@ -324,7 +324,8 @@ void simulate(const Call& c) {
                                     sr.writeSeconds,      sr.hitMapRays,     rayRate,
                                     sr.abrdfValues,       evalRate,          sr.brdfEvaluations,
                                     sr.peakRssBytes,      sr.outputBytes,    sr.chunks,
-                                    sr.chunksResumed,     sr.exactSeconds};
+                                    sr.chunksResumed,     sr.exactSeconds,
+                                    sr.reciprocalSeconds, sr.reciprocalMaxCorrection};
   if (sr.adaptive) res.samples = json::parse(sr.samplingJson);
   const EffectPlan& pl = job.plan();
   std::string t =
@@ -334,13 +335,14 @@ void simulate(const Call& c) {
               samplingName(job).c_str(),
               o.method == "pt" ? "exact (path traced)" : shadowModeName(o.shadows), est.threads);
   t += samplingText(sr);
+  std::string parts;
+  if (sr.exactSeconds > 0) parts += "exact visibility " + formatSeconds(sr.exactSeconds) + ", ";
+  if (sr.reciprocalSeconds > 0)
+    parts += format("reciprocal gather %s (corrections up to %.1f %%), ",
+                    formatSeconds(sr.reciprocalSeconds).c_str(), 100 * sr.reciprocalMaxCorrection);
   t += format("  wall %s: hit maps %s (%.2f M rays/s), %saBRDF %s (%.2f M values/s), write %s\n",
               formatSeconds(sr.wallSeconds).c_str(), formatSeconds(sr.hitMapSeconds).c_str(),
-              rayRate / 1e6,
-              sr.exactSeconds > 0
-                  ? ("exact visibility " + formatSeconds(sr.exactSeconds) + ", ").c_str()
-                  : "",
-              formatSeconds(sr.evalSeconds).c_str(), evalRate / 1e6,
+              rayRate / 1e6, parts.c_str(), formatSeconds(sr.evalSeconds).c_str(), evalRate / 1e6,
               formatSeconds(sr.writeSeconds).c_str());
   t += format("  effects: self-shadowing %s, inter-reflection %s (P = %d), %d channel(s), VMF %s\n",
               pl.selfShadowing ? "on" : "off", pl.interreflection ? "on" : "off", pl.bounces,

@@ -99,6 +99,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       S.ly = float(S.pos.y * g.nv / g.Ly - j);
       S.inPrev = false;
       S.prevIndex = -1;
+      S.si = si;
       S.ok = m_direct.surface(S.pos, wv, m_maps.prim(view, si), m_maps.bu(view, si),
                               m_maps.bv(view, si), m_maps.depth(view, si), &S.s);
       classify(S);
@@ -329,6 +330,7 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
       ++rays;
       cs.inPrev = false;
       cs.prevIndex = -1;
+      cs.si = -1;
       cs.ok = hit.hit() && m_direct.surface(cs.pos, wv, hit.prim, hit.u, hit.v, depth, &cs.s);
       classify(cs);
     }
@@ -812,8 +814,18 @@ int64_t AdaptiveTexelSampler::eval(int i, int j, int view, float* out) const {
     // Indirect light, smooth over a texel away from edges: over the map's samples at edges.
     const std::vector<Sample>& set = edge ? map : sc.levels[0];
     const float w = 1.0f / float(set.size());
+    // With the reciprocal scale the gathered row is summed apart, then scaled per light.
+    thread_local std::vector<float> own;
+    float* acc = out;
+    if (m_gather->scaled()) {
+      own.assign(size_t(nL) * 3, 0.f);
+      acc = own.data();
+    }
     for (const Sample& S : set)
-      if (S.ok) m_gather->add(S.s.p, S.s.ng, S.s.n, S.s.prim, Vec3(wv), w, out);
+      if (S.ok)
+        m_gather->add(S.s.p, S.s.ng, S.s.n, S.s.prim, Vec3(wv), w, acc,
+                      S.si >= 0 ? m_gather->cachedOcclusion(view, S.si) : -1.0f);
+    if (acc != out) m_gather->addScaled(view, acc, out);
   }
 
   if (m_stats) {

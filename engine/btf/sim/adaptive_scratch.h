@@ -21,6 +21,7 @@ struct Sample {
   bool inPrev = false;  // already part of the previous level (its contributions are summed)
   int cls = -1;         // its face in Scratch::faces (−1: none, its value is its own)
   int prevIndex = -1;   // its index in the previous level's array
+  int64_t si = -1;      // its hit-map sample (−1: a refined sample of its own)
   DirectIllumination::Surface s;
 };
 

@@ -66,6 +66,9 @@ void PointNetwork::forNeighbours(const Vec3& pin, int ring, F&& f) const {
   const int cx = std::min(m_nx - 1, int(p.x / m_cx)), cy = std::min(m_ny - 1, int(p.y / m_cy));
   const int cz = int(std::floor((p.z - m_z0) / m_cz));
   const int rx = std::min(ring, (m_nx - 1) / 2), ry = std::min(ring, (m_ny - 1) / 2);
+  // p and the points lie in [0, L): the nearest periodic image is one compare away (what
+  // d − round(d / L) · L gives, without its division).
+  const float Lx = float(m_Lx), Ly = float(m_Ly), hx = float(0.5 * m_Lx), hy = float(0.5 * m_Ly);
   for (int dz = -ring; dz <= ring; ++dz) {
     const int z = cz + dz;
     if (z < 0 || z >= m_nz) continue;
@@ -77,8 +80,10 @@ void PointNetwork::forNeighbours(const Vec3& pin, int ring, F&& f) const {
         for (uint32_t k = m_cellStart[c]; k < m_cellStart[c + 1]; ++k) {
           const uint32_t i = m_cellPoints[k];
           Vec3 d = m_points[i].p - p;
-          d.x -= float(std::round(d.x / m_Lx) * m_Lx);
-          d.y -= float(std::round(d.y / m_Ly) * m_Ly);
+          if (d.x > hx) d.x -= Lx;
+          else if (d.x < -hx) d.x += Lx;
+          if (d.y > hy) d.y -= Ly;
+          else if (d.y < -hy) d.y += Ly;
           f(i, d);
         }
       }
@@ -512,23 +517,15 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
 }
 
 void NetworkGather::add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t prim,
-                        const Vec3& wo, float weight, float* out) const {
+                        const Vec3& wo, float weight, float* out, float alpha) const {
   uint32_t idx[16];
   float w[16];
-  const int n = m_net.nearest(p, ng, m_net.settings().gather, idx, w);
+  float ax = -1;
+  const int n = neighbours(p, ng, idx, w, &ax, alpha);
   if (n == 0) return;
   const Material& m = m_materials[m_geom.triMaterial[prim]];
   const int nL = m_light.lights();
   const Rgb kd = m.kdOverPi * weight;
-  // E ≈ π α L̄: the hit's own occluded fraction, the occluders' mean radiance from the points.
-  float ax = -1;
-  if (m_alphaRays > 0) {
-    ax = occlusion(p, ng);
-    for (int i = 0; i < n; ++i) {
-      const float aq = m_net.points()[idx[i]].alpha;
-      w[i] *= aq > 1e-3f ? std::min(ax / aq, 4.0f) : 1.0f;
-    }
-  }
   for (int i = 0; i < n; ++i) {
     const float* E = m_light.irradiance(idx[i]);
     const float a = kd.x * w[i], b = kd.y * w[i], c = kd.z * w[i];
@@ -577,6 +574,123 @@ void NetworkGather::add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t 
     out[3 * l + 1] += f.y * E.y;
     out[3 * l + 2] += f.z * E.z;
   }
+}
+
+int NetworkGather::neighbours(const Vec3& p, const Vec3& ng, uint32_t* idx, float* w,
+                              float* ax, float known) const {
+  const int n = m_net.nearest(p, ng, m_net.settings().gather, idx, w);
+  *ax = -1;
+  if (n == 0 || m_alphaRays <= 0) return n;
+  // E ≈ π α L̄: the hit's own occluded fraction, the occluders' mean radiance from the points.
+  *ax = known >= 0 ? known : occlusion(p, ng);
+  for (int i = 0; i < n; ++i) {
+    const float aq = m_net.points()[idx[i]].alpha;
+    w[i] *= aq > 1e-3f ? std::min(*ax / aq, 4.0f) : 1.0f;
+  }
+  return n;
+}
+
+void NetworkGather::Weights::reset(size_t points, size_t links, int lights) {
+  point.assign(points * 3, 0.0);
+  link.assign(links * 3, 0.0);
+  rest.assign(size_t(lights) * 3, 0.0);
+  touchedPoints.clear();
+  touchedLinks.clear();
+}
+
+void NetworkGather::addWeights(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t prim,
+                               const Vec3& wo, float weight, Weights& acc,
+                               float* alphaOut) const {
+  // The same terms as add(), in the same order, kept per point and link.
+  uint32_t idx[16];
+  float w[16];
+  float ax = -1;
+  const int n = neighbours(p, ng, idx, w, &ax, -1);
+  if (alphaOut) *alphaOut = ax;
+  if (n == 0) return;
+  const Material& m = m_materials[m_geom.triMaterial[prim]];
+  const Rgb kd = m.kdOverPi * weight;
+  for (int i = 0; i < n; ++i) {
+    const Rgb k = kd * w[i];  // ≥ 0: a weight that stays 0 is never listed
+    if (!(k.x > 0 || k.y > 0 || k.z > 0)) continue;
+    double* c = &acc.point[size_t(idx[i]) * 3];
+    if (c[0] == 0 && c[1] == 0 && c[2] == 0) acc.touchedPoints.push_back(idx[i]);
+    c[0] += double(k.x), c[1] += double(k.y), c[2] += double(k.z);
+  }
+  if (!isGlossy(m)) return;
+  const Frame fr = Frame::fromNormal(ns);
+  const Vec3 woL = fr.toLocal(wo);
+  if (m_light.glossy() == GlossyGather::Links) {
+    const NetworkPoint& q = m_net.points()[idx[0]];
+    const uint32_t nLinks = q.linkEnd - q.linkBegin;
+    if (nLinks == 0) return;
+    const float g = (ax >= 0 ? ax : q.alpha) * kPiF / float(nLinks) * weight;
+    for (uint32_t e = q.linkBegin; e < q.linkEnd; ++e) {
+      const Rgb f = evalGlossy(m, fr.toLocal(m_net.links()[e].dir), woL) * g;
+      if (!(f.x > 0 || f.y > 0 || f.z > 0)) continue;
+      double* c = &acc.link[size_t(e) * 3];
+      if (c[0] == 0 && c[1] == 0 && c[2] == 0) acc.touchedLinks.push_back(e);
+      c[0] += double(f.x), c[1] += double(f.y), c[2] += double(f.z);
+    }
+    return;
+  }
+  if (!m_light.directional()) return;
+  // The mean-direction lobe depends on each light's mean direction: summed here, per light.
+  for (int l = 0; l < m_light.lights(); ++l) {
+    Vec3 d(0);
+    Rgb E(0);
+    for (int i = 0; i < n; ++i) {
+      const float* Ei = m_light.irradiance(idx[i]) + 3 * l;
+      const float* Di = m_light.direction(idx[i]) + 3 * l;
+      E += w[i] * Rgb(Ei[0], Ei[1], Ei[2]);
+      d += w[i] * Vec3(Di[0], Di[1], Di[2]);
+    }
+    if (!(E.x > 0 || E.y > 0 || E.z > 0)) continue;
+    const float len = glm::length(d);
+    if (!(len > 0)) continue;
+    const Rgb f = evalGlossy(m, fr.toLocal(d / len), woL) * weight;
+    for (int c = 0; c < 3; ++c) acc.rest[size_t(3 * l + c)] += double(f[c] * E[c]);
+  }
+}
+
+void NetworkGather::sumWeights(const Weights& acc, double* out) const {
+  const int nL = m_light.lights();
+  for (int k = 0; k < 3 * nL; ++k) out[k] = acc.rest[size_t(k)];
+  for (uint32_t i : acc.touchedPoints) {
+    const double* c = &acc.point[size_t(i) * 3];
+    const float* E = m_light.irradiance(i);
+    for (int l = 0; l < nL; ++l) {
+      out[3 * l] += c[0] * E[3 * l];
+      out[3 * l + 1] += c[1] * E[3 * l + 1];
+      out[3 * l + 2] += c[2] * E[3 * l + 2];
+    }
+  }
+  for (uint32_t e : acc.touchedLinks) {
+    const double* c = &acc.link[size_t(e) * 3];
+    const float* R = m_light.linkRadiance(e);
+    for (int l = 0; l < nL; ++l) {
+      out[3 * l] += c[0] * R[3 * l];
+      out[3 * l + 1] += c[1] * R[3 * l + 1];
+      out[3 * l + 2] += c[2] * R[3 * l + 2];
+    }
+  }
+}
+
+void NetworkGather::addScaled(int view, const float* g, float* out) const {
+  const int n = 3 * m_light.lights();
+  if (m_scale.empty()) {
+    for (int k = 0; k < n; ++k) out[k] += g[k];
+    return;
+  }
+  BTF_CHECK(view >= 0 && size_t(view + 1) * size_t(n) <= m_scale.size());
+  const float* s = &m_scale[size_t(view) * size_t(n)];
+  for (int k = 0; k < n; ++k) out[k] += s[k] * g[k];
+}
+
+int NetworkGather::occlusionRays() const {
+  if (m_alphaRays <= 0) return 0;
+  const int side = std::max(1, int(std::lround(std::sqrt(double(m_alphaRays)))));
+  return side * side;
 }
 
 float NetworkGather::occlusion(const Vec3& p, const Vec3& ng) const {

@@ -174,13 +174,62 @@ class NetworkGather {
         m_materials(materials) {}
   /// Adds weight × the indirect aBRDF of every light to out[l * 3 + c] for the hit at p on
   /// triangle prim (normals ng, ns facing the viewer), seen from direction wo (world, unit).
+  /// `alpha` ≥ 0: the hit's occluded fraction as occlusion(p, ng) measured it before (the
+  /// same value; see occlusionCache).
   void add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t prim, const Vec3& wo,
-           float weight, float* out) const;
+           float weight, float* out, float alpha = -1) const;
   /// The cosine-weighted occluded fraction of the hemisphere around ng at p, from the
   /// settings' rays (deterministic per position); needs the tracer.
   float occlusion(const Vec3& p, const Vec3& ng) const;
 
+  /// What add() would add for a set of hits, kept as weights: add(hit) summed over the hits
+  /// equals Σ_points point[k] ⊙ E_k + Σ_links link[e] ⊙ R_e (+ `rest`, the mean-direction glossy
+  /// term, which is not linear in E). Each weight is RGB (3 doubles); `touched*` list the
+  /// points and links with a weight, so that a view's sums cost what its hits touch.
+  struct Weights {
+    std::vector<double> point, link, rest;
+    std::vector<uint32_t> touchedPoints, touchedLinks;
+    void reset(size_t points, size_t links, int lights);
+  };
+  /// The hit's weights (same arguments as add), accumulated into acc; the occluded fraction
+  /// it measured in *alphaOut (−1: none).
+  void addWeights(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t prim, const Vec3& wo,
+                  float weight, Weights& acc, float* alphaOut = nullptr) const;
+  /// Rays per hit of the occluded fraction (0: not measured).
+  int occlusionRays() const;
+  /// The occluded fractions of the hit maps' samples, measured once (by the reciprocal gather's
+  /// tile sums) and read back by add(): per (view, sample) the count of occluded rays, 255 where
+  /// not measured. `samples` per view.
+  void setOcclusionCache(std::vector<uint8_t> counts, int64_t samples) {
+    m_alphaCache = std::move(counts);
+    m_cacheSamples = samples;
+  }
+  /// The cached α of hit-map sample si seen from view, or −1.
+  float cachedOcclusion(int view, int64_t si) const {
+    if (m_alphaCache.empty()) return -1;
+    const uint8_t c = m_alphaCache[size_t(view) * size_t(m_cacheSamples) + size_t(si)];
+    return c == 255 ? -1.0f : float(c) / float(occlusionRays());
+  }
+  /// acc's sums per light: out[l * 3 + c] = Σ add(hit)[l * 3 + c] over acc's hits.
+  void sumWeights(const Weights& acc, double* out) const;
+
+  /// Per-(view, light, channel) factors on the gathered light (views × lights × 3, the
+  /// directions of the lighting): empty for none. See reciprocal_gather.h.
+  void setScale(std::vector<float> scale) { m_scale = std::move(scale); }
+  bool scaled() const { return !m_scale.empty(); }
+  /// out[k] += s[view][k] · g[k] over a row of lights (s = 1 without a scale).
+  void addScaled(int view, const float* g, float* out) const;
+  const PointNetwork& network() const { return m_net; }
+  const NetworkLighting& lighting() const { return m_light; }
+
  private:
+  // The hit's nearest points and their weights, with the hit's own occlusion when measured
+  // (ax: α(x), or −1). Returns how many.
+  int neighbours(const Vec3& p, const Vec3& ng, uint32_t* idx, float* w, float* ax,
+                 float known) const;
+  std::vector<float> m_scale;
+  std::vector<uint8_t> m_alphaCache;
+  int64_t m_cacheSamples = 0;
   const PeriodicTracer* m_tracer = nullptr;
   int m_alphaRays = 0;
   const PointNetwork& m_net;

@@ -226,6 +226,59 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
       e.lightSeconds = lightSeconds;
       e.gatherSeconds = gatherSeconds;
       e.evalSeconds += gatherSeconds;
+      if (m_opt.reciprocalGather) {
+        // The tile sums: every hit-map sample of every view once (timed on up to 2048 of the
+        // calibration's hits), then per view a weighted sum over the points it touched (timed
+        // once, scaled to every point). The hits' occlusion rays are not counted: the texels'
+        // gather, timed above with them, reads them back from the sums' cache instead.
+        NetworkGather::Weights acc;
+        acc.reset(m_network->points().size(), m_network->links().size(), light.lights());
+        const SampleGrid& cg = maps.grid();
+        const int64_t n = std::min<int64_t>(2048, cg.samples() * nD);
+        int64_t used = 0;
+        std::vector<double> sums(size_t(light.lights()) * 3);
+        double perHit = 0, perPoint = 0, perAlpha = 0;
+        withThreads(1, [&] {
+          auto t = Clock::now();
+          for (int64_t k = 0; k < n; ++k) {
+            const int view = int(k % nD);
+            const int64_t si = (k / nD * 7919) % cg.samples();
+            const uint32_t prim = maps.prim(view, si);
+            if (prim == kNoHit) continue;
+            const DVec3 wv = m_dirs[view].w;
+            const Vec3 p = Vec3(cg.position(int(si % cg.su()), int(si / cg.su())) +
+                                double(maps.depth(view, si)) * wv);
+            Vec3 ng, ns;
+            if (!hitNormals(m_geom, prim, maps.bu(view, si), maps.bv(view, si), Vec3(wv), &ng,
+                            &ns))
+              continue;
+            gather.addWeights(p, ng, ns, prim, Vec3(wv), 1.0f, acc);
+            ++used;
+          }
+          perHit = used ? since(t) / double(used) : 0;
+          if (gather.occlusionRays() > 0 && used > 0) {
+            t = Clock::now();
+            for (int64_t k = 0; k < std::min<int64_t>(n, 256); ++k)
+              gather.occlusion(m_network->points()[size_t(k) % m_network->points().size()].p,
+                               m_network->points()[size_t(k) % m_network->points().size()].ng);
+            perAlpha = since(t) / double(std::min<int64_t>(n, 256));
+          }
+          t = Clock::now();
+          gather.sumWeights(acc, sums.data());
+          const size_t touched = acc.touchedPoints.size() + acc.touchedLinks.size();
+          perPoint = touched ? since(t) / double(touched) : 0;
+        });
+        checkCancel();
+        const double hits = double(nD) * double(texels) * m_mapSpp * m_mapSpp *
+                            (used > 0 ? double(used) / double(n) : 0.0);
+        e.reciprocalSeconds =
+            (std::max(0.0, perHit - perAlpha) * hits +
+             perPoint * double(nD) *
+                 double(m_network->points().size() +
+                        (glossyGather() == GlossyGather::Links ? m_network->links().size() : 0))) /
+            threads;
+        e.evalSeconds += e.reciprocalSeconds;
+      }
       if (!plm.find("bounces")->forced && pl.bounces < m_opt.plan.maxAutoBounces)
         plm.find("bounces")->secondsSaved =
             lightSeconds / std::max(1, pl.bounces - 1) * (m_opt.plan.maxAutoBounces - pl.bounces);

@@ -215,6 +215,7 @@ BtfInfo SimulationJob::storeInfo(int chunkTexels) const {
     plan["network"]["links"] = n.links;
     plan["network"]["gather"] = n.gather;
     plan["network"]["gather_occlusion_rays"] = n.gatherOcclusion;
+    plan["network"]["reciprocal_gather"] = m_opt.reciprocalGather;
     plan["network"]["glossy_gather"] = glossyGatherName(glossyGather());
     plan["network"]["points"] = m_network->points().size();
     plan["network"]["link_count"] = m_network->links().size();
@@ -298,6 +299,11 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
     throwIfCancelled(cancel, "preview");
     gather =
         std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials, m_tracer.get());
+    if (m_opt.reciprocalGather)
+      gather->setScale(
+          reciprocalScale(gatherTileSums(*gather, maps, m_geom, pair, localComm(), nullptr, cancel),
+                          pair.size())
+              .scale);
   }
   TexelKernel kernel{*m_tracer,      m_materials, pair, maps, direct, gather.get(),
                      pt && indirect, nullptr,     {},   1,    {}};

@@ -56,6 +56,9 @@ struct SimOptions {
   PlanRequest plan;
   NetworkSettings network = autoNetwork();  // voxels 0: one voxel per texel, in [64, 128]
   int ptPaths = 16;                         // --method pt: paths per texel sample
+  /// The network's gathered light scaled per (view, light) so that its tile average is
+  /// reciprocal (sim/reciprocal_gather.h).
+  bool reciprocalGather = true;
   /// Direct light's visibility: "exact" (sim/exact_direct.h: flat faces by area, smooth faces
   /// sampled uniformly on the hit maps), "sampled" (adaptive or uniform samples), "auto" (exact
   /// when adaptive sampling is asked for and every face is flat; sampled otherwise).
@@ -69,6 +72,7 @@ struct SimEstimate {
   double seconds = 0, hitMapSeconds = 0, evalSeconds = 0;
   double networkSeconds = 0, lightSeconds = 0, gatherSeconds = 0;  // parts of the above
   double exactSeconds = 0;  // exact visibility's share of evalSeconds
+  double reciprocalSeconds = 0;  // the reciprocal gather's tile sums' share of evalSeconds
   uint64_t memoryBytes = 0, hitMapBytes = 0, chunkBytes = 0, diskBytes = 0, freeDiskBytes = 0;
   uint64_t networkBytes = 0;
   int chunkTexels = 1, chunks = 1;
@@ -97,6 +101,8 @@ struct SimReport {
   // faces sampled); the hidden-surface removal's time.
   std::string visibility = "sampled";
   double exactSeconds = 0;
+  // The reciprocal gather: the time of its tile sums and the largest correction it applied.
+  double reciprocalSeconds = 0, reciprocalMaxCorrection = 0;
   // A cluster job (docs/cluster.md): ranks, the chunks and texels this rank computed, and the
   // bytes it sent and received through the communicator.
   int ranks = 1, chunksComputed = 0;

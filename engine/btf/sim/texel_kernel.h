@@ -8,6 +8,7 @@
 #include <btf/core/sysinfo.h>
 #include <btf/geometry/tile_builder.h>
 #include <btf/sim/path_tracer.h>
+#include <btf/sim/reciprocal_gather.h>
 #include <btf/sim/shading.h>
 #include <btf/sim/simulator.h>
 #include <unistd.h>
@@ -160,6 +161,13 @@ struct TexelKernel {
     const DVec3 wv = dirs[view].w;
     const float invK2 = 1.0f / float(K2);
     const TileGeometry& geom = tracer.geometry();
+    // With the reciprocal scale the texel's gathered row is summed apart, then scaled per light.
+    thread_local std::vector<float> own;
+    float* acc = out;
+    if (gather->scaled()) {
+      own.assign(size_t(dirs.size()) * 3, 0.f);
+      acc = own.data();
+    }
     for (int s = 0; s < K2; ++s) {
       const int64_t si = g.sampleIndex(i, j, s);
       const uint32_t prim = maps.prim(view, si);
@@ -169,8 +177,9 @@ struct TexelKernel {
       Vec3 ng, ns;
       if (!hitNormals(geom, prim, maps.bu(view, si), maps.bv(view, si), Vec3(wv), &ng, &ns))
         continue;
-      gather->add(p, ng, ns, prim, Vec3(wv), invK2, out);
+      gather->add(p, ng, ns, prim, Vec3(wv), invK2, acc, gather->cachedOcclusion(view, si));
     }
+    if (acc != out) gather->addScaled(view, acc, out);
   }
 };
 

@@ -113,7 +113,9 @@ TEST(ExactSim, DirectLightEqualsUniformHighSppOnEveryResourceScene) {
 
 TEST(ExactSim, TileAverageIsReciprocalAtDefaultSettings) {
   // Brick and V-grooves go exact by default: their direct light is reciprocal up to float
-  // rounding, what is left is the network's gather (view side only).
+  // rounding, and so is the reciprocal gather's indirect light — at every pair, grazing
+  // included (the one-sided gather left 0.55 % and 1.04 % at θ ≤ 60°). Spheres are sampled:
+  // what is left is the adaptive sampler's own error.
   for (const char* name : {"brick", "vgrooves", "spheres"}) {
     SCOPED_TRACE(name);
     const Scene s = resourceScene(name);
@@ -128,14 +130,15 @@ TEST(ExactSim, TileAverageIsReciprocalAtDefaultSettings) {
     double worst = 0;
     for (int a = 0; a < n; ++a)
       for (int b = a + 1; b < n; ++b) {
-        if (d[a].theta > deg2rad(60) || d[b].theta > deg2rad(60)) continue;
+        const bool exact = rep.visibility == "exact";
+        if (!exact && (d[a].theta > deg2rad(60) || d[b].theta > deg2rad(60))) continue;
         const double x = avg[size_t(a) * n + b], y = avg[size_t(b) * n + a];
         if (std::max(x, y) < 1e-3 * 256) continue;
         worst = std::max(worst, std::abs(x - y) / std::max(x, y));
       }
-    std::printf("  %-9s %-8s worst reciprocity gap of the tile average %.2f %%\n", name,
+    std::printf("  %-9s %-8s worst reciprocity gap of the tile average %.4f %%\n", name,
                 rep.visibility.c_str(), 100 * worst);
-    EXPECT_LT(worst, std::string(name) == "vgrooves" ? 0.02 : 0.01);
+    EXPECT_LT(worst, rep.visibility == "exact" ? 1e-4 : 0.01);
   }
 }
 
