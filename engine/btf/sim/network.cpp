@@ -558,22 +558,29 @@ void NetworkGather::add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t 
   }
   if (!m_light.directional()) return;
   for (int l = 0; l < nL; ++l) {
-    Vec3 d(0);
-    Rgb E(0);
-    for (int i = 0; i < n; ++i) {
-      const float* Ei = m_light.irradiance(idx[i]) + 3 * l;
-      const float* Di = m_light.direction(idx[i]) + 3 * l;
-      E += w[i] * Rgb(Ei[0], Ei[1], Ei[2]);
-      d += w[i] * Vec3(Di[0], Di[1], Di[2]);
-    }
-    if (!(E.x > 0 || E.y > 0 || E.z > 0)) continue;
-    const float len = glm::length(d);
-    if (!(len > 0)) continue;
-    const Rgb f = evalGlossy(m, fr.toLocal(d / len), woL) * weight;
-    out[3 * l] += f.x * E.x;
-    out[3 * l + 1] += f.y * E.y;
-    out[3 * l + 2] += f.z * E.z;
+    const Rgb g = meanDirectionGlossy(m, fr, woL, idx, w, n, l, weight);
+    out[3 * l] += g.x;
+    out[3 * l + 1] += g.y;
+    out[3 * l + 2] += g.z;
   }
+}
+
+Rgb NetworkGather::meanDirectionGlossy(const Material& m, const Frame& fr, const Vec3& woL,
+                                       const uint32_t* idx, const float* w, int n, int l,
+                                       float weight) const {
+  Vec3 d(0);
+  Rgb E(0);
+  for (int i = 0; i < n; ++i) {
+    const float* Ei = m_light.irradiance(idx[i]) + 3 * l;
+    const float* Di = m_light.direction(idx[i]) + 3 * l;
+    E += w[i] * Rgb(Ei[0], Ei[1], Ei[2]);
+    d += w[i] * Vec3(Di[0], Di[1], Di[2]);
+  }
+  if (!(E.x > 0 || E.y > 0 || E.z > 0)) return Rgb(0);
+  const float len = glm::length(d);
+  if (!(len > 0)) return Rgb(0);
+  const Rgb f = evalGlossy(m, fr.toLocal(d / len), woL) * weight;
+  return Rgb(f.x * E.x, f.y * E.y, f.z * E.z);
 }
 
 int NetworkGather::neighbours(const Vec3& p, const Vec3& ng, uint32_t* idx, float* w,
@@ -637,19 +644,8 @@ void NetworkGather::addWeights(const Vec3& p, const Vec3& ng, const Vec3& ns, ui
   if (!m_light.directional()) return;
   // The mean-direction lobe depends on each light's mean direction: summed here, per light.
   for (int l = 0; l < m_light.lights(); ++l) {
-    Vec3 d(0);
-    Rgb E(0);
-    for (int i = 0; i < n; ++i) {
-      const float* Ei = m_light.irradiance(idx[i]) + 3 * l;
-      const float* Di = m_light.direction(idx[i]) + 3 * l;
-      E += w[i] * Rgb(Ei[0], Ei[1], Ei[2]);
-      d += w[i] * Vec3(Di[0], Di[1], Di[2]);
-    }
-    if (!(E.x > 0 || E.y > 0 || E.z > 0)) continue;
-    const float len = glm::length(d);
-    if (!(len > 0)) continue;
-    const Rgb f = evalGlossy(m, fr.toLocal(d / len), woL) * weight;
-    for (int c = 0; c < 3; ++c) acc.rest[size_t(3 * l + c)] += double(f[c] * E[c]);
+    const Rgb g = meanDirectionGlossy(m, fr, woL, idx, w, n, l, weight);
+    for (int c = 0; c < 3; ++c) acc.rest[size_t(3 * l + c)] += double(g[c]);
   }
 }
 

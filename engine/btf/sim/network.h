@@ -227,6 +227,9 @@ class NetworkGather {
   // (ax: α(x), or −1). Returns how many.
   int neighbours(const Vec3& p, const Vec3& ng, uint32_t* idx, float* w, float* ax,
                  float known) const;
+  // The mean-direction glossy term of light l over the hit's neighbours (f(ω̄, ωo) · E).
+  Rgb meanDirectionGlossy(const Material& m, const Frame& fr, const Vec3& woL,
+                          const uint32_t* idx, const float* w, int n, int l, float weight) const;
   std::vector<float> m_scale;
   std::vector<uint8_t> m_alphaCache;
   int64_t m_cacheSamples = 0;
