@@ -206,9 +206,16 @@ bool App::scriptStep() {
          }},
         {"wait_preview",
          [&]() -> std::optional<bool> {
+           // "stage": "image" stops at the preview image with every effect of the plan (the
+           // BRDF slice and the texel matrix may still be running); absent: every stage.
+           const std::string stage = a.value("stage", std::string("all"));
+           if (stage != "all" && stage != "image")
+             return fail("wait_preview: stage '" + stage + "' is not one of all, image");
+           const bool imageOnly = stage == "image";
            waitFor(
-               [this] {
-                 if (pv.dirty || pv.result.generation != pv.generation || !pv.result.done)
+               [this, imageOnly] {
+                 if (pv.dirty || pv.result.generation != pv.generation) return false;
+                 if (!(imageOnly ? pv.result.imageFinal || pv.result.done : pv.result.done))
                    return false;
                  m_report["preview_first_image_ms"].push_back(pv.firstImageSeconds * 1e3);
                  m_report["preview_all_stages_ms"].push_back(pv.result.imageSeconds * 1e3);

@@ -84,14 +84,17 @@ TEST(Studio, EveryResourceSceneEditsUndoesAndScreenshots) {
     names.push_back(e.path().stem().string());
   std::sort(names.begin(), names.end());
   ASSERT_GE(names.size(), 10u);
+  // The previews' images (every effect of each scene's plan), not their texel matrices: one
+  // texel's 96 × 96 pairs with interreflection take ~20 s a scene here, and are checked against
+  // the simulator by the preview tests.
   a.push_back({{"directions", {{"size", 32}}}});
   for (const auto& n : names) {
     a.push_back({{"open", sceneFile(n)}});
-    a.push_back({{"wait_preview", 240}});
+    a.push_back({{"wait_preview", 240}, {"stage", "image"}});
     a.push_back({{"set", "/parts/0/transform/translate"}, {"value", {0.0, 0.0, 0.01}}});
     a.push_back({{"undo", 1}});
     a.push_back({{"expect_original", true}});
-    a.push_back({{"wait_preview", 240}});
+    a.push_back({{"wait_preview", 240}, {"stage", "image"}});
     a.push_back({{"screenshot", (dir / (n + ".png")).string()}});
   }
   std::string log;

@@ -119,6 +119,9 @@ void runPreview(const PreviewRequest& r, const CancelToken& cancel, const Previe
     if (cancel.cancelled()) return;
     auto curve = averagedBrdf(job.tracer(), job.materials(), curvePairs, S, o.seed, &cancel);
     if (cancel.cancelled()) return;
+    if (std::getenv("BTF_PREVIEW_TIMING"))
+      std::fprintf(stderr, "preview: BRDF slice (%zu + %zu pairs × %d) at %.1f ms\n", pairs.size(),
+                   curvePairs.size(), S, since() * 1e3);
     publish(
         [&](PreviewResult& res) {
           res.brdfGrid = G;
@@ -140,6 +143,9 @@ void runPreview(const PreviewRequest& r, const CancelToken& cancel, const Previe
     const int v = r.texelV >= 0 ? std::min(r.texelV, r.size - 1) : r.size / 2;
     auto m = job.evaluateTexels({int64_t(v) * r.size + u}, &cancel);
     if (cancel.cancelled() || m.empty()) return;
+    if (std::getenv("BTF_PREVIEW_TIMING"))
+      std::fprintf(stderr, "preview: texel matrix (%s) at %.1f ms\n", job.directions().name().c_str(),
+                   since() * 1e3);
     publish(
         [&](PreviewResult& res) {
           res.texelU = u;
