@@ -271,6 +271,7 @@ void ExactDirect::hsr(int dir, DirRegions* out, int64_t* tests) const {
   int64_t nTests = 0;
   for (uint32_t a : valid) {
     const Face& A = m_faces[a];
+    if (!A.flat && !m_everyFace) continue;  // an occluder only: shaded by the sampled kernel
     const double nd = glm::dot(A.n, w);
     if (std::abs(nd) < 1e-6) continue;  // edge-on: no projected area
     const Box& ba = box[a];
@@ -372,6 +373,7 @@ void ExactDirect::hsr(int dir, DirRegions* out, int64_t* tests) const {
 
 double ExactDirect::visibleFraction(int dir, uint32_t prim) const {
   BTF_CHECK(m_prepared && dir >= 0 && dir < m_dirs.size() && prim < m_faces.size());
+  BTF_CHECK(m_everyFace || !m_faces[prim].valid || m_faces[prim].flat);
   const DirRegions& R = m_regions[size_t(dir)];
   if (R.state[prim] == kHidden) return 0;
   if (R.state[prim] == kWhole) return 1;

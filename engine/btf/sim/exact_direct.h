@@ -40,6 +40,11 @@ class ExactDirect {
   ExactDirect(const ExactDirect&) = delete;
   ExactDirect& operator=(const ExactDirect&) = delete;
 
+  /// Regions for the smooth faces too (before prepare()). The kernel shades those by samples
+  /// and needs the flat faces' regions only, so by default the smooth faces occlude but get none
+  /// (on a curved tile most of the hidden-surface removal's work); visibleFraction() of a smooth
+  /// face needs this on.
+  void setEveryFace(bool on) { m_everyFace = on; }
   /// Hidden-surface removal for every direction (parallel; progress counts directions).
   void prepare(ProgressReporter* progress = nullptr, const CancelToken* cancel = nullptr);
 
@@ -63,7 +68,8 @@ class ExactDirect {
   /// One (view, light) pair over the whole grid: image[3·(j·nu + i) + c].
   void evalPair(int view, int light, float* image) const;
 
-  /// Area fraction of triangle `prim` that direction `dir` sees first (for tests): 0 … 1.
+  /// Area fraction of triangle `prim` that direction `dir` sees first (for tests): 0 … 1; a
+  /// smooth face's only with setEveryFace(true).
   double visibleFraction(int dir, uint32_t prim) const;
 
  private:
@@ -83,6 +89,7 @@ class ExactDirect {
   std::vector<DirRegions> m_regions;  // per direction
   ExactStats m_stats;
   bool m_prepared = false;
+  bool m_everyFace = false;
 };
 
 }  // namespace btf
