@@ -59,6 +59,7 @@ Json json(const SimulateResult& r) {
     j["precompute_seconds"] = s.precomputeSeconds;
     j["render_seconds"] = s.renderSeconds;
     j["network_seconds"] = s.networkSeconds;
+    j["network_reused"] = s.networkReused;
     j["network_light_seconds"] = s.networkLightSeconds;
     j["wall_seconds"] = s.wallSeconds;
     j["hit_map_seconds"] = s.hitMapSeconds;

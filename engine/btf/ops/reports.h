@@ -78,6 +78,7 @@ struct SimulateResult {
     double exactVisibilitySeconds = 0;  // the exact mode's hidden-surface removal (in wall)
     // The reciprocal gather's tile sums (in wall) and the largest per-pair correction it made.
     double reciprocalGatherSeconds = 0, reciprocalGatherMaxCorrection = 0;
+    bool networkReused = false;  // built by an earlier job of this process (network_seconds 0)
   };
   /// --compress: the values went straight into a codec (with --mip: a pyramid).
   struct Compressed {

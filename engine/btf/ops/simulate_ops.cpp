@@ -325,7 +325,8 @@ void simulate(const Call& c) {
                                     sr.abrdfValues,       evalRate,          sr.brdfEvaluations,
                                     sr.peakRssBytes,      sr.outputBytes,    sr.chunks,
                                     sr.chunksResumed,     sr.exactSeconds,
-                                    sr.reciprocalSeconds, sr.reciprocalMaxCorrection};
+                                    sr.reciprocalSeconds, sr.reciprocalMaxCorrection,
+                                    sr.networkReused};
   if (sr.adaptive) res.samples = json::parse(sr.samplingJson);
   const EffectPlan& pl = job.plan();
   std::string t =
@@ -351,7 +352,8 @@ void simulate(const Call& c) {
     t += format(
         "  precompute %s (network %s: %zu points, %zu links; hit maps %s), render %s "
         "(network light %s)\n",
-        formatSeconds(sr.precomputeSeconds).c_str(), formatSeconds(sr.networkSeconds).c_str(),
+        formatSeconds(sr.precomputeSeconds).c_str(),
+        sr.networkReused ? "reused" : formatSeconds(sr.networkSeconds).c_str(),
         sr.networkPoints, sr.networkLinks, formatSeconds(sr.hitMapSeconds).c_str(),
         formatSeconds(sr.renderSeconds).c_str(), formatSeconds(sr.lightSeconds).c_str());
   t += format("  peak memory %s; chunks %d (%d resumed)\n",

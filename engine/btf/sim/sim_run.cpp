@@ -125,7 +125,8 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   r.chunksResumed = writer ? writer->chunksDone() : 0;
   if (writer) r.resumeNote = writer->resumeNote();
   if (m_network && gi) {
-    r.networkSeconds = m_network->buildSeconds();
+    r.networkSeconds = m_networkReused ? 0 : m_network->buildSeconds();
+    r.networkReused = m_networkReused;
     r.networkPoints = m_network->points().size();
     r.networkLinks = m_network->links().size();
   }

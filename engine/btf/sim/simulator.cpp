@@ -2,6 +2,8 @@
 // the point network, the store's layout, and the direct entry points that evaluate chosen texels
 // or one (view, light) pair (the preview). The run and its estimate are in sim_run.cpp and
 // sim_estimate.cpp.
+#include <btf/sim/network_cache.h>
+
 #include "texel_kernel.h"
 
 namespace btf {
@@ -113,9 +115,7 @@ void SimulationJob::checkCancel() const {
 const EffectPlan& SimulationJob::plan() const {
   if (!m_plan) {
     if (m_opt.plan.interreflection != Toggle::Off) {
-      m_network = std::make_unique<PointNetwork>();
-      std::unique_ptr<ProgressReporter> pr;
-      m_network->build(*m_tracer, networkSettings(), nullptr, m_cancel);
+      m_network = sharedNetwork(*m_tracer, m_geom, networkSettings(), m_cancel, &m_networkReused);
       checkCancel();
     }
     m_plan = std::make_unique<EffectPlan>(

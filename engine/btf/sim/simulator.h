@@ -87,6 +87,7 @@ struct SimReport {
   // network solve + every texel's values.
   double networkSeconds = 0, lightSeconds = 0, precomputeSeconds = 0, renderSeconds = 0;
   size_t networkPoints = 0, networkLinks = 0;
+  bool networkReused = false;  // the network was built by an earlier job of this process
   uint64_t hitMapRays = 0;
   uint64_t abrdfValues = 0;      // (texel, view, light) values computed
   uint64_t brdfEvaluations = 0;  // (sample, view, light) BRDF × visibility evaluations
@@ -193,7 +194,8 @@ class SimulationJob {
   DirectionSet m_dirs;
   std::vector<Material> m_materials;
   mutable std::unique_ptr<EffectPlan> m_plan;
-  mutable std::unique_ptr<PointNetwork> m_network;
+  mutable std::shared_ptr<const PointNetwork> m_network;  // sim/network_cache.h
+  mutable bool m_networkReused = false;
   ChunkSink m_sink;
   VmfSink m_vmfSink;
   std::vector<int64_t> m_trainTexels;
