@@ -100,6 +100,11 @@ def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
     _, pkg, ext = _package_dir()
     files = [(f"btfstudio/{p.name}", p.read_bytes()) for p in sorted(pkg.glob("*.py"))]
     files.append((f"btfstudio/{ext.name}", ext.read_bytes()))
+    # The engine's OpenImageIO module, loaded from beside _core on the first image read or write.
+    mod = pkg / "libbtf_oiio.so"
+    if not mod.is_file():
+        raise RuntimeError(f"btfstudio: {mod} is missing: rebuild the package (`make`)")
+    files.append((f"btfstudio/{mod.name}", mod.read_bytes()))
     return _write_wheel(wheel_directory, files)
 
 

@@ -64,6 +64,7 @@ def test_pip_install_wheels_the_build_and_it_imports_outside_the_tree(tmp_path, 
     site = pathlib.Path(where).parent
     assert {"__init__.py", "mitsuba.py"} <= {f.name for f in site.glob("*.py")}
     assert list(site.glob("_core*.so"))
+    assert (site / "libbtf_oiio.so").is_file()  # the OpenImageIO module the engine loads
     # Uninstalled cleanly from its RECORD.
     u = subprocess.run([str(py), "-m", "pip", "uninstall", "-y", "btfstudio"], capture_output=True,
                        text=True)

@@ -1,6 +1,5 @@
 // buildPart: dispatch from a declared part type to its builder, plus the procedural height
 // functions (sine, bumps, V-grooves, periodic noise, image) and the swept tube of weaves.
-#include <OpenImageIO/imageio.h>
 #include <btf/core/error.h>
 #include <btf/core/input_file.h>
 #include <btf/core/rng.h>

@@ -1,19 +1,96 @@
-#include <OpenImageIO/imageio.h>
+// Image files: the checks before a reader sees a byte (extension, signature, EXR header, pixel
+// budget), the sRGB encoding, atomic writes; OpenImageIO itself is reached through the module
+// of btf/io/oiio_module.h, loaded on the first image read or write.
 #include <btf/core/error.h>
 #include <btf/core/input_file.h>
 #include <btf/io/exr_check.h>
 #include <btf/io/image_io.h>
+#include <btf/io/oiio_module.h>
+#include <dlfcn.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <string>
 #include <string_view>
+#include <vector>
 
 namespace btf {
+
+namespace {
+
+/// The OpenImageIO module's entry points, resolved once per process.
+struct OiioModule {
+  BtfOiioWriteFn write = nullptr;
+  BtfOiioOpenFn open = nullptr;
+  BtfOiioReadFn read = nullptr;
+  BtfOiioCloseFn close = nullptr;
+  std::string error;  ///< why it could not be loaded (then every entry is null)
+};
+
+void oiioProbe() {}  // an address inside this object, for dladdr
+
+/// Where libbtf_oiio.so is looked for: $BTF_OIIO_MODULE alone when set; otherwise beside the
+/// object that holds the engine (the Python package's _core.so), beside the executable, and the
+/// build tree's own copy.
+std::vector<std::string> oiioModuleCandidates() {
+  if (const char* e = std::getenv("BTF_OIIO_MODULE"); e && *e) return {e};
+  std::vector<std::string> out;
+  Dl_info info{};
+  if (::dladdr(reinterpret_cast<void*>(&oiioProbe), &info) && info.dli_fname && *info.dli_fname)
+    out.push_back((std::filesystem::path(info.dli_fname).parent_path() / "libbtf_oiio.so").string());
+  std::error_code ec;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) out.push_back((exe.parent_path() / "libbtf_oiio.so").string());
+#ifdef BTF_OIIO_MODULE_PATH
+  out.push_back(BTF_OIIO_MODULE_PATH);
+#endif
+  return out;
+}
+
+const OiioModule& oiio() {
+  static const OiioModule m = [] {
+    OiioModule r;
+    std::string tried;
+    for (const std::string& path : oiioModuleCandidates()) {
+      if (path.empty()) continue;
+      if (!std::filesystem::exists(path)) {
+        tried += (tried.empty() ? "" : ", ") + path + " (missing)";
+        continue;
+      }
+      void* h = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+      if (!h) {
+        const char* why = ::dlerror();
+        tried += (tried.empty() ? "" : ", ") + path + " (" + (why ? why : "dlopen failed") + ")";
+        continue;
+      }
+      auto abi = reinterpret_cast<BtfOiioAbiFn>(::dlsym(h, "btf_oiio_abi"));
+      r.write = reinterpret_cast<BtfOiioWriteFn>(::dlsym(h, "btf_oiio_write"));
+      r.open = reinterpret_cast<BtfOiioOpenFn>(::dlsym(h, "btf_oiio_open"));
+      r.read = reinterpret_cast<BtfOiioReadFn>(::dlsym(h, "btf_oiio_read"));
+      r.close = reinterpret_cast<BtfOiioCloseFn>(::dlsym(h, "btf_oiio_close"));
+      if (abi && abi() == BTF_OIIO_ABI && r.write && r.open && r.read && r.close) return r;
+      r = OiioModule{};
+      tried += (tried.empty() ? "" : ", ") + path + " (another build: interface " +
+               (abi ? std::to_string(abi()) : std::string("unknown")) + ", expected " +
+               std::to_string(BTF_OIIO_ABI) + ")";
+      ::dlclose(h);
+    }
+    r.error = "image I/O: cannot load the OpenImageIO module libbtf_oiio.so (tried " +
+              (tried.empty() ? std::string("nothing") : tried) +
+              "); set BTF_OIIO_MODULE to its path";
+    return r;
+  }();
+  if (!m.write) throw Error(m.error);
+  return m;
+}
+
+}  // namespace
 
 float linearToSrgb(float v) {
   v = std::clamp(v, 0.0f, 1.0f);
@@ -57,22 +134,17 @@ void writeRgbaImage(const std::string& path, int w, int h, const std::vector<flo
   const std::filesystem::path parent = std::filesystem::path(path).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent);
   const std::string tmp = path + ".tmp" + ext;  // keep the extension so OIIO picks the format
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out) throw Error(path + ": cannot write images of this type (" + OIIO::geterror() + ")");
-  OIIO::ImageSpec spec(w, h, nc, hdr ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::UINT8);
-  if (hdr) {
-    spec.format = OIIO::TypeDesc::FLOAT;
-    spec.attribute("oiio:ColorSpace", "Linear");
-    for (const auto& [k, v] : metadata) spec.attribute("btf:" + k, v);
-  } else {
-    spec.attribute("oiio:ColorSpace", "sRGB");  // the PNG writer adds the sRGB chunk
-    if (ext != ".png") {
-      spec.attribute("compression", "jpeg:95");
-      spec.attribute("jpeg:subsampling", "4:4:4");  // no chroma subsampling: texels are small
-    }
+  std::vector<const char*> keys, values;
+  if (hdr)
+    for (const auto& [k, v] : metadata) keys.push_back(k.c_str()), values.push_back(v.c_str());
+  const BtfOiioWrite req{path.c_str(), tmp.c_str(), w,  h, nc, hdr ? 1 : 0, ext != ".png" ? 1 : 0,
+                         keys.data(),  values.data(), int(keys.size()), px.data()};
+  char err[1024] = "";
+  if (oiio().write(&req, err, sizeof err) != 0) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw Error(path + ": " + err);
   }
-  if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, px.data()) || !out->close())
-    throw Error(path + ": cannot write image (" + out->geterror() + ")");
   std::filesystem::rename(tmp, path);
 }
 
@@ -164,13 +236,18 @@ std::vector<float> readImageChecked(const std::string& path, uint64_t maxPixels,
   StderrCapture quiet;
 #endif
   // The plugin by its name, opened alone (no other reader is tried).
-  auto in = OIIO::ImageInput::create(std::string(plugin));
-  OIIO::ImageSpec opened;
-  if (!in || !in->open(path, opened))
-    throw Error(path + ": cannot read " + what + " (" +
-                oneLine(in ? in->geterror() : OIIO::geterror()) + ")");
-  const OIIO::ImageSpec& spec = in->spec();
-  const int64_t w = spec.width, h = spec.height, ch = spec.nchannels;
+  const OiioModule& io = oiio();
+  BtfOiioSpec spec{};
+  char err[1024] = "";
+  struct Handle {
+    const OiioModule& io;
+    void* h;
+    ~Handle() {
+      if (h) io.close(h);
+    }
+  } in{io, io.open(std::string(plugin).c_str(), path.c_str(), &spec, err, sizeof err)};
+  if (!in.h) throw Error(path + ": cannot read " + what + " (" + oneLine(err) + ")");
+  const int64_t w = spec.width, h = spec.height, ch = spec.channels;
   if (w <= 0 || h <= 0 || ch <= 0) throw Error(path + ": " + what + " is empty");
   if (spec.depth > 1) throw Error(path + ": " + what + " is a volume (depth > 1)");
   if (w > 65536 || h > 65536 || uint64_t(w) * uint64_t(h) > maxPixels)
@@ -180,8 +257,8 @@ std::vector<float> readImageChecked(const std::string& path, uint64_t maxPixels,
   if (ch > 64) throw Error(path + ": " + what + " has " + std::to_string(ch) + " channels");
   const int n = decode > 0 ? int(std::min<int64_t>(decode, ch)) : int(ch);
   std::vector<float> all(size_t(w) * size_t(h) * size_t(n));
-  if (!in->read_image(0, 0, 0, n, OIIO::TypeDesc::FLOAT, all.data()))
-    throw Error(path + ": cannot read " + what + " (" + oneLine(in->geterror()) + ")");
+  if (io.read(in.h, n, all.data(), err, sizeof err) != 0)
+    throw Error(path + ": cannot read " + what + " (" + oneLine(err) + ")");
   *width = int(w);
   *height = int(h);
   *channels = n;
