@@ -361,6 +361,8 @@ void App::drawDiscardPrompt() {
 void App::frame() {
   // Preview requests follow every scene or direction change.
   if (doc.revision() != pv.requestedRevision) pv.dirty = true;
+  const bool analysis = panels["BRDF"];
+  if (analysis && !pv.requestedAnalysis) pv.dirty = true;  // opened: its stages are due
   if (pv.dirty) {
     PreviewRequest r;
     r.sceneJson = doc.json();
@@ -373,6 +375,8 @@ void App::frame() {
     r.size = pv.size;
     r.texelU = pv.texelU;
     r.texelV = pv.texelV;
+    r.brdf = r.matrix = analysis;
+    pv.requestedAnalysis = analysis;
     pv.generation = preview.request(r);
     pv.requestedRevision = doc.revision();
     pv.requestTime = Clock::now();

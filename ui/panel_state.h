@@ -26,6 +26,9 @@ struct PreviewState {
   bool tileAverage = true;  // BRDF hemisphere: tile average (else the picked texel)
   uint64_t requestedRevision = ~0ull, generation = 0;
   bool dirty = true;  // a new request is due
+  // The last request computed the BRDF slice and the texel matrix: only while the BRDF panel,
+  // which alone shows them, is open (they cost more than the image: one texel's n × n pairs).
+  bool requestedAnalysis = false;
   std::chrono::steady_clock::time_point requestTime;
   double firstImageSeconds = -1;  // latency of the last request's first image
   PreviewResult result;

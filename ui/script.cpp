@@ -368,6 +368,23 @@ bool App::scriptStep() {
                    "the comparison");
            return std::nullopt;
          }},
+        {"codec_options",
+         [&]() -> std::optional<bool> {
+           // What the Jobs form's codec options would hold: {"neural_steps": 300, …}.
+           for (const auto& [k, v] : a["codec_options"].items()) {
+             if (!form.codecOptions.decl().find(k))
+               return fail("codec_options: '" + k + "' is not an option of compress");
+             try {
+               if (v.is_boolean())
+                 form.codecOptions.setFlag(k, v.get<bool>());
+               else
+                 form.codecOptions.set(k, v.is_string() ? v.get<std::string>() : v.dump());
+             } catch (const std::exception& e) {
+               return fail(std::string("codec_options: ") + e.what());
+             }
+           }
+           return std::nullopt;
+         }},
         {"codec_sweep",
          [&]() -> std::optional<bool> {
            m_lastJobId = startCodecSweep(a["codec_sweep"].get<std::string>());

@@ -222,6 +222,9 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   json a = json::array();
   simulateCompressOpen(a, "brick", out);
   a.push_back({{"compare", true}, {"wait", 300}});
+  // The neural codec's row with 300 training steps (of 4000): its decoder and metrics are under
+  // test here, not its accuracy (28 s of the sweep's 34 at the default).
+  a.push_back({{"codec_options", {{"neural_steps", 300}}}});
   a.push_back({{"codec_sweep", out + ".btf"}, {"wait", 600}});
   a.push_back({{"expect_codec_rows", int(codecNames().size())}});
   a.push_back({{"panel", "Inspector"}});
@@ -442,4 +445,11 @@ TEST(Studio, ScriptErrorsNameTheActionAndExitNonZero) {
   json b = json::array({{{"open", (dir / "missing.json").string()}}});
   EXPECT_EQ(runStudio(b, dir, &log), 1);
   EXPECT_NE(log.find("missing.json"), std::string::npos) << log;
+  // A codec option the compress command does not declare, and one out of its range.
+  json c = json::array({{{"codec_options", {{"neural_stepz", 300}}}}});
+  EXPECT_EQ(runStudio(c, dir, &log), 1);
+  EXPECT_NE(log.find("'neural_stepz' is not an option of compress"), std::string::npos) << log;
+  json d = json::array({{{"codec_options", {{"neural_steps", 0}}}}});
+  EXPECT_EQ(runStudio(d, dir, &log), 1);
+  EXPECT_NE(log.find("--neural-steps"), std::string::npos) << log;
 }
