@@ -293,9 +293,11 @@ TEST(ExactDirect, SeenAreasPartitionTheTileOnEveryResourceScene) {
     ExactDirect flatOnly(g, mats, dirs, 4, 4);
     flatOnly.prepare();
     for (int d = 0; d < dirs.size(); ++d)
-      for (uint32_t t = 0; t < g.triangleCount(); ++t)
-        if (flatOnly.shades(t))
+      for (uint32_t t = 0; t < g.triangleCount(); ++t) {
+        if (flatOnly.shades(t)) {
           ASSERT_EQ(flatOnly.visibleFraction(d, t), ex.visibleFraction(d, t)) << d << " " << t;
+        }
+      }
   }
 }
 
