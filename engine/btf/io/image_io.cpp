@@ -57,16 +57,19 @@ const OiioModule& oiio() {
   static const OiioModule m = [] {
     OiioModule r;
     std::string tried;
+    auto refuse = [&](const std::string& path, const std::string& why) {
+      tried += (tried.empty() ? "" : ", ") + path + " (" + why + ")";
+    };
     for (const std::string& path : oiioModuleCandidates()) {
       if (path.empty()) continue;
       if (!std::filesystem::exists(path)) {
-        tried += (tried.empty() ? "" : ", ") + path + " (missing)";
+        refuse(path, "missing");
         continue;
       }
       void* h = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
       if (!h) {
         const char* why = ::dlerror();
-        tried += (tried.empty() ? "" : ", ") + path + " (" + (why ? why : "dlopen failed") + ")";
+        refuse(path, why ? why : "dlopen failed");
         continue;
       }
       auto abi = reinterpret_cast<BtfOiioAbiFn>(::dlsym(h, "btf_oiio_abi"));
@@ -76,9 +79,9 @@ const OiioModule& oiio() {
       r.close = reinterpret_cast<BtfOiioCloseFn>(::dlsym(h, "btf_oiio_close"));
       if (abi && abi() == BTF_OIIO_ABI && r.write && r.open && r.read && r.close) return r;
       r = OiioModule{};
-      tried += (tried.empty() ? "" : ", ") + path + " (another build: interface " +
-               (abi ? std::to_string(abi()) : std::string("unknown")) + ", expected " +
-               std::to_string(BTF_OIIO_ABI) + ")";
+      refuse(path, "another build: interface " +
+                       (abi ? std::to_string(abi()) : std::string("unknown")) + ", expected " +
+                       std::to_string(BTF_OIIO_ABI));
       ::dlclose(h);
     }
     r.error = "image I/O: cannot load the OpenImageIO module libbtf_oiio.so (tried " +
