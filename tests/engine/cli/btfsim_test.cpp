@@ -102,6 +102,34 @@ TEST(Btfsim, SimulateSliceInfoAndBrdfAgree) {
   EXPECT_NE(out.find("0.159154"), std::string::npos) << out;
 }
 
+TEST(Btfsim, AMissingImageModuleIsAClearErrorAndCommandsWithoutImagesStillRun) {
+  // OpenImageIO is loaded on the first image read or write (btf/io/oiio_module.h): without the
+  // module a slice to EXR fails naming where it looked and leaves no file; a simulation, which
+  // writes no image, runs as before.
+  const auto dir = test::tempDir("cli_no_oiio");
+  const std::string btf = (dir / "flat.btf").string(), exr = (dir / "s.exr").string();
+  const std::string env = "BTF_OIIO_MODULE=" + (dir / "nowhere.so").string();
+  std::ofstream(dir / "flat.json")
+      << R"({"btfscene": 1, "materials": {"m": {"type": "lambert", "albedo": 0.5}},
+    "parts": [{"type": "plane", "material": "m"}]})";
+  std::string out;
+  ASSERT_EQ(test::runBtfsim("simulate " + (dir / "flat.json").string() + " -o " + btf +
+                                " --texels 4 --dirs 4x8 -q",
+                            &out, env),
+            0)
+      << out;
+  EXPECT_EQ(test::runBtfsim("slice " + btf + " --view 20,30 --light 50,200 -o " + exr, &out, env),
+            1);
+  EXPECT_NE(out.find("cannot load the OpenImageIO module libbtf_oiio.so"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find((dir / "nowhere.so").string() + " (missing)"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(exr));
+  // Found where the build puts it: the same slice succeeds.
+  EXPECT_EQ(test::runBtfsim("slice " + btf + " --view 20,30 --light 50,200 -o " + exr, &out), 0)
+      << out;
+  EXPECT_TRUE(std::filesystem::exists(exr));
+}
+
 TEST(Btfsim, BrdfReadsPairsFromCsvWithLineErrors) {
   const auto dir = test::tempDir("cli_csv");
   std::ofstream(dir / "p.csv") << "theta_i,phi_i,theta_o,phi_o\n10,0,20,0\n30,0,oops,0\n";
