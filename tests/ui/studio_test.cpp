@@ -424,6 +424,33 @@ TEST(Studio, CancelStopsWithinASecondLeavesNoPartialAndJobErrorsKeepTheScene) {
   expectNotBlank(dir / "after_error.png");
 }
 
+TEST(Studio, TheBrdfSliceIsComputedOnlyWhileItsPanelIsOpen) {
+  // The preview's BRDF slice and texel matrix are for the BRDF panel alone: with it closed the
+  // preview finishes without them; opening it requests them.
+  const auto dir = tempDir("ui_studio_brdf_gate");
+  const std::string b = (dir / "brdf.json").string();
+  std::string log;
+  // The first frame's request was made with the panel open (the default layout): a new light
+  // direction is the request made with it closed.
+  json closed = json::array({{{"new", true}},
+                             {{"layout", {"Scene", "Preview"}}},
+                             {{"directions", {{"light", {40.0, 10.0}}}}},
+                             {{"wait_preview", 60}},
+                             {{"save_brdf", b}}});
+  EXPECT_EQ(runStudio(closed, dir, &log), 1);
+  EXPECT_NE(log.find("no BRDF slice yet"), std::string::npos) << log;
+  json opened = json::array({{{"new", true}},
+                             {{"layout", {"Scene", "Preview"}}},
+                             {{"directions", {{"light", {40.0, 10.0}}}}},
+                             {{"wait_preview", 60}},
+                             {{"panel", "BRDF"}},
+                             {{"wait_preview", 60}},
+                             {{"save_brdf", b}}});
+  ASSERT_EQ(runStudio(opened, dir, &log), 0) << log;
+  const json r = json::parse(readFile(b));
+  EXPECT_FALSE(r.at("values").empty()) << r.dump();
+}
+
 TEST(Studio, SaysClearlyWhenThereIsNoDisplay) {
   const auto dir = tempDir("ui_studio_nodisplay");
   const std::string cmd =
