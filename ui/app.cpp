@@ -533,6 +533,7 @@ int App::run() {
     frameMs = std::chrono::duration<double, std::milli>(now - last).count();
     last = now;
     frameHistory.push_back(frameMs);
+    ++m_frames;
     if (frameHistory.size() > 240) frameHistory.pop_front();
     if (!m_script.is_null() && !scriptStep()) m_quit = true;
     // A script waiting on a job or the preview worker draws ten frames a second, not as many as

@@ -135,6 +135,7 @@ class App : public StudioActions {
   nlohmann::json m_script;
   size_t m_scriptPos = 0;
   int m_scriptWaitFrames = 0;
+  uint64_t m_frames = 0;  // frames drawn since start (BTF_SCRIPT_TIMING prints them per action)
   std::chrono::steady_clock::time_point m_waitUntil{};
   std::function<bool()> m_waitFor;  // true when the wait is over
   // The wait is on a background job: frames are spaced (scriptFrameSpacing) so that drawing

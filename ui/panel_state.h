@@ -74,6 +74,9 @@ struct ObjectState {
   // The tensor decoder's tables on the GPU: "projected_cores" (G per cluster, view and light),
   // "texel_matrices" (M per texel) or "coefficients" (neither fit).
   std::string tensorTables;
+  // The most floats the tensor decoder's derived tables may take on the GPU (64 MiB); the
+  // script's {"open_compressed": …, "gpu_table_mib": N} sets it (docs/studio.md).
+  uint64_t gpuTableFloats = uint64_t(16) << 20;
   std::vector<std::unique_ptr<gl::TextureBuffer>> buffers;  // bound arrays of the decoder
   std::string bound;                                        // path of the bound file
   double frameMs = 0;  // GPU-inclusive time of the last object pass (rendered on change only)
@@ -111,6 +114,8 @@ struct TileViewState {
   float yaw = 0.8f, pitch = 0.9f, distance = 3.5f;
   int selectedPart = -1;
   uint64_t builtRevision = ~0ull;
+  std::string drawnKey;  // what the framebuffer shows (redrawn when it changes)
+  int draws = 0;         // times it was drawn (the session report's "tile_view_draws")
   std::string error;
   gl::Mesh mesh, outline, lightLine;
   gl::Program program, lines;

@@ -83,6 +83,8 @@ bool App::scriptStep() {
   }
   if (m_scriptPos >= m_script.size()) {
     if (!m_report.empty() && m_report.contains("_path")) {
+      m_report["frames_drawn"] = m_frames;
+      m_report["tile_view_draws"] = tile.draws;
       std::ofstream f(m_report["_path"].get<std::string>());
       f << m_report.dump(2) << "\n";
     }
@@ -93,10 +95,13 @@ bool App::scriptStep() {
   // BTF_SCRIPT_TIMING=1: when each action starts (where a long scripted test spends its time).
   static const bool timing = std::getenv("BTF_SCRIPT_TIMING") != nullptr;
   static const auto scriptStart = Clock::now();
+  static uint64_t framesBefore = 0;
   if (timing)
-    std::fprintf(stderr, "script timing: action %zu (%s) at %.2f s\n", m_scriptPos + 1,
-                 a.is_object() && !a.empty() ? a.begin().key().c_str() : "?",
-                 std::chrono::duration<double>(Clock::now() - scriptStart).count());
+    std::fprintf(stderr, "script timing: action %zu (%s) at %.2f s, %llu frames before it\n",
+                 m_scriptPos + 1, a.is_object() && !a.empty() ? a.begin().key().c_str() : "?",
+                 std::chrono::duration<double>(Clock::now() - scriptStart).count(),
+                 static_cast<unsigned long long>(m_frames - framesBefore));
+  framesBefore = m_frames;
   ++m_scriptPos;
   auto fail = [&](const std::string& why) {
     message(where + ": " + why, true);
@@ -358,6 +363,14 @@ bool App::scriptStep() {
          }},
         {"open_compressed",
          [&]() -> std::optional<bool> {
+           if (a.contains("gpu_table_mib")) {
+             const json& m = a["gpu_table_mib"];
+             if (!m.is_number() || !(m.get<double>() >= 1 && m.get<double>() <= 4096))
+               return fail("open_compressed: gpu_table_mib must be a number in [1, 4096], got " +
+                           m.dump());
+             obj.gpuTableFloats = uint64_t(m.get<double>() * double(1 << 20) / 4);
+             obj.bound.clear();  // the tables are made again when the file is bound
+           }
            openCompressed(a["open_compressed"], str("reference"));
            return std::nullopt;
          }},
@@ -442,9 +455,18 @@ bool App::scriptStep() {
         {"object",
          [&]() -> std::optional<bool> {
            for (const char* k :
-                {"yaw", "pitch", "light_theta", "light_phi", "relief_scale", "tiling"})
+                {"yaw", "pitch", "light_theta", "light_phi", "relief_scale", "tiling",
+                 "render_scale"})
              if (a.contains(k) && !a[k].is_number())
                return fail(std::string("object: ") + k + " must be a number");
+           if (a.contains("render_scale")) {
+             // The panel's own slider: pixels of the pass per pixel of the panel.
+             const double rs = a["render_scale"];
+             if (!(rs >= 0.25 && rs <= 1))
+               return fail("object: render_scale must be in [0.25, 1] (the panel's slider), got " +
+                           a["render_scale"].dump());
+             obj.renderScale = float(rs);
+           }
            obj.shape = a["object"];
            // Nobody interacts while a script waits for the pass: bands of 250 ms (the same
            // pixels in fewer frames); "wait": 0 measures the interactive bands of 10 ms.

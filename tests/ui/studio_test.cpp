@@ -145,7 +145,7 @@ TEST(Studio, TheTensorGlslDecoderMatchesTheCpuWithEitherTable) {
                     m = (dir / "m.cbtf").string();
   std::string out;
   ASSERT_EQ(runBtfsim("simulate " + sceneFile("brick") + " -o " + raw +
-                          " --texels 8 --dirs 16x32 --spp 1 -q",
+                          " --texels 8 --dirs 8x16 --spp 1 -q",
                       &out),
             0)
       << out;
@@ -156,8 +156,12 @@ TEST(Studio, TheTensorGlslDecoderMatchesTheCpuWithEitherTable) {
       0)
       << out;
   json a = json::array();
+  // The tables' budget at 2 MiB (64 by default): at 128 directions the default codec's projected
+  // cores (n² × ΣRt = 16384 × 24 floats) fit and the 4 × 8 ranks' (× 96) do not, so the second
+  // file takes the per-texel matrices — the switch a 64 MiB budget makes at 512 directions,
+  // without their 16x32 simulation and compressions (15 s of this test).
   for (const auto& [file, name] : {std::pair{g, "g"}, std::pair{m, "m"}}) {
-    a.push_back({{"open_compressed", file}, {"reference", raw}});
+    a.push_back({{"open_compressed", file}, {"reference", raw}, {"gpu_table_mib", 2}});
     a.push_back({{"check_glsl", {{"samples", 512}, {"tolerance", 2e-3}, {"name", name}}}});
   }
   a.push_back({{"report", (dir / "report.json").string()}});
@@ -230,9 +234,13 @@ TEST(Studio, SimulateCompressInspectStudyExportAndTheGlslDecoder) {
   a.push_back({{"panel", "Inspector"}});
   a.push_back({{"screenshot", (dir / "inspector.png").string()}});
   a.push_back({{"check_glsl", {{"samples", 512}, {"tolerance", 2e-3}}}});
+  // The object passes at a quarter of the panel's pixels (its slider's lowest; the default is a
+  // half): the screenshots need each object drawn by the decoder, not at full resolution — under
+  // llvmpipe a pass at the default took 2–6 s (a third of this test's CPU time). The decoder's
+  // values are checked by check_glsl, the march by the mapped-view test's check_mapped.
   for (const char* o : {"plane", "sphere", "cylinder", "vase", "cushion", "chair"}) {
     a.push_back({{"panel", "Objects"}});
-    a.push_back({{"object", o}});
+    a.push_back({{"object", o}, {"render_scale", 0.25}});
     a.push_back({{"frames", 3}});
     a.push_back({{"screenshot", (dir / (std::string("object_") + o + ".png")).string()}});
   }
@@ -331,7 +339,13 @@ TEST(Studio, MappedViewMarchesTheShellAsTheCpuRendererDoesPixelByPixel) {
     simulateCompressOpen(a, scene, (dir / scene).string());
   a.push_back({{"panel", "Objects"}});
   // The spheres last opened: the section seen low.
-  a.push_back({{"object", "section"}, {"view", "mapped"}, {"tiling", 3}, {"pitch", 0.3}});
+  // The panel's passes at a quarter of its pixels (as in the test above); check_mapped renders
+  // at its own size.
+  a.push_back({{"object", "section"},
+               {"view", "mapped"},
+               {"tiling", 3},
+               {"pitch", 0.3},
+               {"render_scale", 0.25}});
   a.push_back({{"check_mapped", {{"size", {80, 60}}}}});
   a.push_back({{"screenshot", (dir / "spheres_section.png").string()}});
   const std::string brick = (dir / "brick").string();
@@ -375,7 +389,11 @@ TEST(Studio, MappedViewMarchesTheShellAsTheCpuRendererDoesPixelByPixel) {
   json b = json::array();
   b.push_back({{"open_compressed", brick + ".cbtf"}});
   b.push_back({{"panel", "Objects"}});
-  b.push_back({{"object", "sphere"}, {"view", "mapped"}, {"tiling", 4}, {"pitch", 0.5}});
+  b.push_back({{"object", "sphere"},
+               {"view", "mapped"},
+               {"tiling", 4},
+               {"pitch", 0.5},
+               {"render_scale", 0.25}});
   b.push_back({{"check_mapped", {{"size", {80, 60}}}}});
   b.push_back({{"report", (dir / "alone.json").string()}});
   ASSERT_EQ(runStudio(b, dir, &log), 0) << log;
@@ -390,7 +408,7 @@ TEST(Studio, MappedViewMarchesTheShellAsTheCpuRendererDoesPixelByPixel) {
   json c = json::array();
   c.push_back({{"open_compressed", (dir / "old.cbtf").string()}});
   c.push_back({{"panel", "Objects"}});
-  c.push_back({{"object", "sphere"}, {"view", "mapped"}});
+  c.push_back({{"object", "sphere"}, {"view", "mapped"}, {"render_scale", 0.25}});
   c.push_back({{"check_mapped", {{"size", {32, 24}}}}});
   EXPECT_NE(runStudio(c, dir, &log), 0) << log;
   EXPECT_NE(log.find("visibility map"), std::string::npos) << log;
@@ -451,6 +469,32 @@ TEST(Studio, TheBrdfSliceIsComputedOnlyWhileItsPanelIsOpen) {
   EXPECT_FALSE(r.at("values").empty()) << r.dump();
 }
 
+TEST(Studio, TheTileViewIsDrawnOnlyWhenWhatItShowsChanges) {
+  // Nine copies of the tile's mesh are drawn again only when the scene, the camera, the light or
+  // the panel's size changed; frames in between show the framebuffer kept (an idle studio under
+  // a software renderer spent most of its time there).
+  const auto dir = tempDir("ui_studio_tile_draws");
+  std::string log;
+  auto draws = [&](bool moveLight) {
+    json a = json::array({{{"new", true}}, {{"frames", 40}}});
+    if (moveLight) {
+      a.push_back({{"directions", {{"light", {50.0, 120.0}}}}});
+      a.push_back({{"frames", 5}});
+    }
+    a.push_back({{"report", (dir / "r.json").string()}});
+    EXPECT_EQ(runStudio(a, dir, &log), 0) << log;
+    return json::parse(readFile(dir / "r.json"));
+  };
+  const json still = draws(false), moved = draws(true);
+  EXPECT_GE(still.at("frames_drawn").get<int>(), 40) << still.dump();
+  // The first frames settle the window's layout (a new size each): a few draws, not forty.
+  EXPECT_GE(still.at("tile_view_draws").get<int>(), 1) << still.dump();
+  EXPECT_LE(still.at("tile_view_draws").get<int>(), 4) << still.dump();
+  // A new light direction (the line drawn from the tile's centre) is one more draw.
+  EXPECT_EQ(moved.at("tile_view_draws").get<int>(), still.at("tile_view_draws").get<int>() + 1)
+      << moved.dump();
+}
+
 TEST(Studio, SaysClearlyWhenThereIsNoDisplay) {
   const auto dir = tempDir("ui_studio_nodisplay");
   const std::string cmd =
@@ -479,4 +523,14 @@ TEST(Studio, ScriptErrorsNameTheActionAndExitNonZero) {
   json d = json::array({{{"codec_options", {{"neural_steps", 0}}}}});
   EXPECT_EQ(runStudio(d, dir, &log), 1);
   EXPECT_NE(log.find("--neural-steps"), std::string::npos) << log;
+  // The object panel's render scale outside its slider's range.
+  json e = json::array({{{"object", "sphere"}, {"render_scale", 2}}});
+  EXPECT_EQ(runStudio(e, dir, &log), 1);
+  EXPECT_NE(log.find("action 1: object: render_scale must be in [0.25, 1]"), std::string::npos)
+      << log;
+  json f = json::array({{{"open_compressed", "x.cbtf"}, {"gpu_table_mib", 0}}});
+  EXPECT_EQ(runStudio(f, dir, &log), 1);
+  EXPECT_NE(log.find("action 1: open_compressed: gpu_table_mib must be a number in [1, 4096]"),
+            std::string::npos)
+      << log;
 }

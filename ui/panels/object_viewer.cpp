@@ -78,7 +78,7 @@ void bindDecoder(const ObjectView& app, const gl::Program& prog, bool levels) {
     };
     // tensor: derived tables (offsets, per-texel matrices up to 64 MiB) beside the arrays.
     const TensorGpuTables tables =
-        c.codec == "tensor" ? tensorGpuTables(c, uint64_t(16) << 20) : TensorGpuTables{};
+        c.codec == "tensor" ? tensorGpuTables(c, o.gpuTableFloats) : TensorGpuTables{};
     o.tensorTables.clear();
     if (c.codec == "tensor")
       o.tensorTables = tables.projected                                  ? "projected_cores"

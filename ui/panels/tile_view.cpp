@@ -5,6 +5,8 @@
 #include <btf/scene/material.h>
 #include <imgui.h>
 
+#include <cstdio>
+
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
@@ -111,19 +113,29 @@ void drawTileView(const TileViewView& app) {
     t.program.setVec3s("u_colours", cols.data(), 16);
     t.mesh.drawInstanced(9);
   };
-  t.fb.begin(0.12f, 0.12f, 0.15f, 1);
-  gl::begin3d();
-  drawScene(false);
-  t.lines.use();
-  t.lines.setMat4("u_viewProj", glm::value_ptr(vp));
-  t.lines.set("u_colour", 1.0f, 1.0f, 1.0f);
-  t.outline.draw();
-  const glm::vec3 a(t.Lx / 2, t.Ly / 2, t.zmax), b = a + ldir * (0.6f * L);
-  t.lightLine.set({{{a.x, a.y, a.z}, {}, {}}, {{b.x, b.y, b.z}, {}, {}}}, {0, 1}, true);
-  t.lines.set("u_colour", 1.0f, 0.85f, 0.2f);
-  t.lightLine.draw();
-  gl::end3d();
-  gl::Framebuffer::end(app.width, app.height);
+  // Drawn only when something it shows changed (nine copies of a fine mesh are a large part of
+  // an idle frame under llvmpipe); the framebuffer keeps the last image.
+  char key[256];
+  std::snprintf(key, sizeof key, "%llu|%d|%d|%.5f|%.5f|%.5f|%.5f|%.5f|%d",
+                static_cast<unsigned long long>(t.builtRevision), w, h, t.yaw, t.pitch, t.distance,
+                app.pv.thetaL, app.pv.phiL, t.selectedPart);
+  if (key != t.drawnKey) {
+    t.drawnKey = key;
+    ++t.draws;
+    t.fb.begin(0.12f, 0.12f, 0.15f, 1);
+    gl::begin3d();
+    drawScene(false);
+    t.lines.use();
+    t.lines.setMat4("u_viewProj", glm::value_ptr(vp));
+    t.lines.set("u_colour", 1.0f, 1.0f, 1.0f);
+    t.outline.draw();
+    const glm::vec3 a(t.Lx / 2, t.Ly / 2, t.zmax), b = a + ldir * (0.6f * L);
+    t.lightLine.set({{{a.x, a.y, a.z}, {}, {}}, {{b.x, b.y, b.z}, {}, {}}}, {0, 1}, true);
+    t.lines.set("u_colour", 1.0f, 0.85f, 0.2f);
+    t.lightLine.draw();
+    gl::end3d();
+    gl::Framebuffer::end(app.width, app.height);
+  }
   const ImVec2 p0 = ImGui::GetCursorScreenPos();
   ImGui::Image(t.fb.imguiId(), ImVec2(float(w), float(h)), ImVec2(0, 1), ImVec2(1, 0));
   if (ImGui::IsItemActive() && ImGui::IsMouseDragging(0, 2)) {
