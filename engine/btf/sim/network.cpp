@@ -243,7 +243,8 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
     uint32_t prim;
     float u, v;
   };
-  // The point's stratified cosine-weighted rays; returns how many hit a back face.
+  // The point's stratified cosine-weighted rays and what they hit; returns how many met a back
+  // face.
   auto traceHits = [&](int64_t i, std::vector<HitRec>& hits, std::vector<DVec3>& hitDirs) {
     const NetworkPoint& q = m_points[size_t(i)];
     const Frame fr = Frame::fromNormal(q.ng);
@@ -263,19 +264,10 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
       }
     return back;
   };
-  // 4a. Points enclosed in a solid (most of their rays meet back faces: the plane under a box)
-  // are never seen; they are marked and left out of every search.
-  parallelForChunks(
-      int64_t(m_points.size()), 16,
-      [&](int64_t b, int64_t e) {
-        std::vector<HitRec> hits;
-        std::vector<DVec3> hitDirs;
-        for (int64_t i = b; i < e; ++i)
-          m_points[size_t(i)].enclosed = 2 * traceHits(i, hits, hitDirs) > dirsUsed;
-      },
-      cancel);
-  throwIfCancelled(cancel, "network build");
-  // 4b. α and links.
+  // 4a. One pass of rays per point: points enclosed in a solid (most of their rays meet back
+  // faces: the plane under a box) are never seen — marked, and left out of every search; the
+  // others get α and their links (a random subset of the hits, drawn per point: partial
+  // Fisher–Yates), each with its exact hit.
   parallelForChunks(
       int64_t(m_points.size()), 16,
       [&](int64_t b, int64_t e) {
@@ -284,17 +276,14 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
         std::vector<int> order;
         for (int64_t i = b; i < e; ++i) {
           NetworkPoint& q = m_points[size_t(i)];
-          const DVec3 origin = DVec3(q.p) + eps * DVec3(q.ng);
+          q.enclosed = 2 * traceHits(i, hits, hitDirs) > dirsUsed;
           if (q.enclosed) {
             q.alpha = 0;
-            if (progress) progress->add(1);
             continue;
           }
-          traceHits(i, hits, hitDirs);
           q.alpha = float(hits.size()) / float(dirsUsed);
           const int nh = int(hits.size());
           const int want = std::min(nh, s.links);
-          // A random subset of the hits, drawn per point (partial Fisher–Yates).
           order.resize(size_t(nh));
           for (int k = 0; k < nh; ++k) order[size_t(k)] = k;
           for (int k = 0; k < want; ++k) {
@@ -305,22 +294,37 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
           auto& out = perPoint[size_t(i)];
           for (int k = 0; k < want; ++k) {
             const int hi = order[size_t(k)];
-            const DVec3 d = hitDirs[size_t(hi)];
             const HitRec& hr = hits[size_t(hi)];
             NetworkLink link;
-            link.dir = Vec3(d);
+            link.dir = Vec3(hitDirs[size_t(hi)]);
             link.hitP = Vec3(hr.p);
             link.hitPrim = hr.prim;
-            if (!hitNormals(g, hr.prim, hr.u, hr.v, -Vec3(d), &link.hitNg, &link.hitNs)) continue;
+            if (!hitNormals(g, hr.prim, hr.u, hr.v, -link.dir, &link.hitNg, &link.hitNs)) continue;
+            out.push_back(link);
+          }
+        }
+      },
+      cancel);
+  throwIfCancelled(cancel, "network build");
+  // 4b. Each link's target: the nearest network point (not enclosed: every flag is known now)
+  // facing the hit and visible from the link's source.
+  parallelForChunks(
+      int64_t(m_points.size()), 16,
+      [&](int64_t b, int64_t e) {
+        for (int64_t i = b; i < e; ++i) {
+          const NetworkPoint& q = m_points[size_t(i)];
+          const DVec3 origin = DVec3(q.p) + eps * DVec3(q.ng);
+          for (NetworkLink& link : perPoint[size_t(i)]) {
+            const DVec3 hp(link.hitP);
             uint32_t idx[4];
             float w[4];
-            const int nc = nearest(Vec3(hr.p), link.hitNg, 4, idx, w);
+            const int nc = nearest(link.hitP, link.hitNg, 4, idx, w);
             for (int c = 0; c < nc; ++c) {
               const NetworkPoint& t = m_points[idx[c]];
               // The target's periodic image nearest to the hit.
               DVec3 img(t.p);
-              img.x += std::round((hr.p.x - img.x) / g.Lx) * g.Lx;
-              img.y += std::round((hr.p.y - img.y) / g.Ly) * g.Ly;
+              img.x += std::round((hp.x - img.x) / g.Lx) * g.Lx;
+              img.y += std::round((hp.y - img.y) / g.Ly) * g.Ly;
               const DVec3 seg = img + eps * DVec3(t.ng) - origin;
               const double dist = glm::length(seg);
               if (!(dist > 4 * eps)) continue;
@@ -330,7 +334,6 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
               link.target = idx[c];
               break;
             }
-            out.push_back(link);
           }
           if (progress) progress->add(1);
         }
