@@ -73,13 +73,19 @@ TEST(Cluster, ThreeRanksWriteTheBytesOfOneProcess) {
     ASSERT_TRUE(j.contains("cluster")) << out;
     EXPECT_EQ(j["cluster"]["ranks"], 3);
     double texels = 0;
+    std::vector<double> lights;
     for (const auto& r : j["cluster"]["per_rank"]) {
       EXPECT_GT(r["texels"].get<double>(), 0);
       texels += r["texels"].get<double>();
       // A plain simulation sends only agreements and sums: well under 1 % of what it computed.
       EXPECT_LT(r["communicated_fraction"].get<double>(), 0.01);
+      // The network's light solve (both scenes have inter-reflection on): every third light on
+      // each rank, the solutions shared apart from the chunks' traffic.
+      lights.push_back(r["lights_solved"].get<double>());
+      EXPECT_GT(r["light_share_bytes"].get<double>(), 0);
     }
     EXPECT_DOUBLE_EQ(texels, 16 * 16);
+    EXPECT_EQ(lights, (std::vector<double>{11, 11, 10})) << j["cluster"].dump();
     for (const std::string codec : {"nmf", "tensor"}) {
       const std::string s1 = (dir / (name + "_" + codec + "_1.cbtf")).string();
       const std::string s3 = (dir / (name + "_" + codec + "_3.cbtf")).string();

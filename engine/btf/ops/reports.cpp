@@ -420,7 +420,9 @@ Json toJson(const ClusterFigures& c) {
                      {"data_bytes", x.dataBytes},
                      {"communicated_bytes", x.communicatedBytes},
                      {"communicated_fraction", x.communicatedFraction},
-                     {"seconds", x.seconds}});
+                     {"seconds", x.seconds},
+                     {"lights_solved", x.lightsSolved},
+                     {"light_share_bytes", x.lightShareBytes}});
   return {{"ranks", c.ranks},
           {"communicator", c.communicator},
           {"max_communicated_bytes", c.maxCommunicatedBytes},

@@ -26,6 +26,9 @@ using Json = nlohmann::ordered_json;
 struct ClusterFigures {
   struct Rank {
     double texels = 0, dataBytes = 0, communicatedBytes = 0, communicatedFraction = 0, seconds = 0;
+    // A simulation with inter-reflection: the network's lights this rank solved and the bytes of
+    // sharing every rank's solutions (apart from communicatedBytes, which is the chunks' traffic).
+    double lightsSolved = 0, lightShareBytes = 0;
   };
   int ranks = 1;
   std::string communicator;

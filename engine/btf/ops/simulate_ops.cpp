@@ -77,11 +77,11 @@ json planJson(const EffectPlan& p) {
 }  // namespace
 
 ClusterFigures clusterFigures(Comm& comm, double texels, double texelBytes, uint64_t commBytes,
-                              double seconds) {
-  // Per rank: texels, bytes of aBRDF it computed or encoded, bytes it sent and received, and the
-  // seconds of its own share.
+                              double seconds, int lightsSolved, uint64_t lightShareBytes) {
+  // Per rank: texels, bytes of aBRDF it computed or encoded, bytes it sent and received, the
+  // seconds of its own share, and its part of the network's light solve.
   const std::vector<double> mine = {double(texels), double(texels) * texelBytes, double(commBytes),
-                                    seconds};
+                                    seconds,         double(lightsSolved),       double(lightShareBytes)};
   ClusterFigures f;
   double slowest = 0, total = 0;
   for (const std::string& s : comm.allgather(packDoubles(mine))) {
@@ -91,7 +91,7 @@ ClusterFigures clusterFigures(Comm& comm, double texels, double texelBytes, uint
     f.maxCommunicatedBytes = std::max(f.maxCommunicatedBytes, v[2]);
     slowest = std::max(slowest, v[3]);
     total += v[3];
-    f.perRank.push_back({v[0], v[1], v[2], share, v[3]});
+    f.perRank.push_back({v[0], v[1], v[2], share, v[3], v[4], v[5]});
   }
   f.ranks = comm.size();
   f.communicator = comm.describe();
@@ -103,10 +103,14 @@ std::string clusterText(const ClusterFigures& cl) {
   std::string t = format("  cluster: %s; balance %.0f %% (mean / slowest rank); per rank:",
                          cl.communicator.c_str(), 100 * cl.balance);
   int r = 0;
-  for (const auto& x : cl.perRank)
+  for (const auto& x : cl.perRank) {
     t += format(" [%d] %g texels in %.1f s, %s sent+received (%.3f %% of its data)", r++, x.texels,
                 x.seconds, formatBytes(x.communicatedBytes).c_str(),
                 100 * x.communicatedFraction);
+    if (x.lightsSolved > 0)
+      t += format(", %g network lights solved (%s shared)", x.lightsSolved,
+                  formatBytes(x.lightShareBytes).c_str());
+  }
   return t + "\n";
 }
 
@@ -193,7 +197,7 @@ void simulate(const Call& c) {
   c.notice("effect plan (" + o.method + "):\n" + planText(job.plan()));
   c.notice(estimateText(est, o, !codec.empty() && !mip));
   if (comm.distributed())
-    // Every rank repeats the hit maps and the light solve; the aBRDF is shared.
+    // Every rank repeats the hit maps; the network's lights and the aBRDF are shared.
     c.notice(format(
         "cluster job: %s; %d chunk(s) over %d rank(s)%s, %d thread(s) each; estimate "
         "%s (each rank: hit maps %s, network light %s, aBRDF %s)",
@@ -203,8 +207,10 @@ void simulate(const Call& c) {
               "one rank to be written)"
             : "",
         est.threads,
-        formatSeconds(est.hitMapSeconds + est.lightSeconds + est.evalSeconds / comm.size()).c_str(),
-        formatSeconds(est.hitMapSeconds).c_str(), formatSeconds(est.lightSeconds).c_str(),
+        formatSeconds(est.hitMapSeconds + (est.lightSeconds + est.evalSeconds) / comm.size())
+            .c_str(),
+        formatSeconds(est.hitMapSeconds).c_str(),
+        formatSeconds(est.lightSeconds / comm.size()).c_str(),
         formatSeconds(est.evalSeconds / comm.size()).c_str()));
   collectively(comm, [&] {
     if (!est.refusal.empty())
@@ -278,10 +284,11 @@ void simulate(const Call& c) {
     // finishOn holds collectives: a failure inside it is one rank's (btfsim then ends the job).
     b = enc->finishOn(comm);
     const double finishSeconds = since(f0);
-    const uint64_t commBytes = comm.bytesSent() + comm.bytesReceived() - comm0;
+    const uint64_t commBytes =
+        comm.bytesSent() + comm.bytesReceived() - comm0 - sr.lightShareBytes;
     if (comm.distributed())
       res.cluster = clusterFigures(comm, sr.texelsComputed, double(info.texelBytes()), commBytes,
-                                   sr.rankEvalSeconds);
+                                   sr.rankEvalSeconds, sr.lightsSolved, sr.lightShareBytes);
     if (!comm.root()) return;
     c.ctx.check("encoder");
     b.copyVmf(vmfOnly);
@@ -315,7 +322,7 @@ void simulate(const Call& c) {
   if (comm.distributed())
     res.cluster =
         clusterFigures(comm, sr.texelsComputed, double(job.storeInfo(est.chunkTexels).texelBytes()),
-                       sr.commBytes, sr.rankEvalSeconds);
+                       sr.commBytes, sr.rankEvalSeconds, sr.lightsSolved, sr.lightShareBytes);
   const double evalRate = sr.evalSeconds > 0 ? double(sr.abrdfValues) / sr.evalSeconds : 0;
   const double rayRate = sr.hitMapSeconds > 0 ? double(sr.hitMapRays) / sr.hitMapSeconds : 0;
   res.store = SimulateResult::Store{sr.networkPoints,    sr.networkLinks,   sr.precomputeSeconds,

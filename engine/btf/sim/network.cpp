@@ -358,7 +358,10 @@ void PointNetwork::build(const PeriodicTracer& tracer, const NetworkSettings& s,
 void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
                             const std::vector<Material>& materials, const DirectionSet& dirs,
                             const LightVisibility& visibility, int bounces, GlossyGather glossy,
-                            ProgressReporter* progress, const CancelToken* cancel, int lightLimit) {
+                            ProgressReporter* progress, const CancelToken* cancel, int lightLimit,
+                            int part, int parts) {
+  if (parts < 1 || part < 0 || part >= parts)
+    throw Error("network light: part " + std::to_string(part) + " of " + std::to_string(parts));
   const auto start = Clock::now();
   const auto& pts = net.points();
   const auto& links = net.links();
@@ -416,13 +419,17 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
   m_setupSeconds = since(start);
   const bool tail = m_closedFormTail && P >= 3;
   const int nSolved = lightLimit > 0 ? std::min(lightLimit, m_nL) : m_nL;
+  const std::vector<int> mine = lightsOfPart(nSolved, part, parts);
+  m_solvedLights = int(mine.size());
+  m_parts = parts;
   parallelForChunks(
-      nSolved, 1,
-      [&](int64_t lb, int64_t le) {
+      int64_t(mine.size()), 1,
+      [&](int64_t mb, int64_t me) {
         std::vector<float> ehit(nLk);
         std::vector<Rgb> lin(nLk), linPrev(nLk), eOrder(nP), eTot(nP), linTot(perLink ? nLk : 0);
         std::vector<Vec3> dsum(directional ? nP : 0);
-        for (int64_t l = lb; l < le; ++l) {
+        for (int64_t m = mb; m < me; ++m) {
+          const int64_t l = mine[size_t(m)];
           const Vec3 w(dirs[int(l)].w);
           const float invCos = 1.0f / float(std::max(dirs[int(l)].w.z, 1e-7));
           for (size_t e = 0; e < nLk; ++e) {
@@ -517,6 +524,68 @@ void NetworkLighting::solve(const PointNetwork& net, const TileGeometry& geom,
       cancel);
   throwIfCancelled(cancel, "network light");
   m_seconds = since(start);
+}
+
+std::vector<int> NetworkLighting::lightsOfPart(int lights, int part, int parts) {
+  std::vector<int> v;
+  for (int l = part; l < lights; l += parts) v.push_back(l);
+  return v;
+}
+
+uint64_t NetworkLighting::share(Comm& comm, uint64_t roundBytes) {
+  const int R = comm.size();
+  if (R == 1) return 0;
+  if (m_parts != R)
+    throw Error("network light: solved in " + std::to_string(m_parts) + " parts, shared over " +
+                std::to_string(R) + " ranks");
+  const uint64_t before = comm.bytesSent() + comm.bytesReceived();
+  const size_t nP = m_E.size() / (size_t(m_nL) * 3), nLk = m_Lin.size() / (size_t(m_nL) * 3);
+  // One light's floats: its E (and D) of every point, its link radiance of every link.
+  const uint64_t perLight = (uint64_t(nP) * (m_D.empty() ? 3 : 6) + uint64_t(nLk) * 3) * 4;
+  const int B = int(std::clamp<uint64_t>(roundBytes / std::max<uint64_t>(perLight, 1), 1, 1 << 20));
+  const int most = (m_nL + R - 1) / R;  // lights of rank 0, the most any rank has
+  auto each = [&](int l, auto&& f) {  // f(pointer, floats) over the light's rows
+    for (size_t k = 0; k < nP; ++k) {
+      f(&m_E[(k * size_t(m_nL) + size_t(l)) * 3], 3);
+      if (!m_D.empty()) f(&m_D[(k * size_t(m_nL) + size_t(l)) * 3], 3);
+    }
+    for (size_t e = 0; e < nLk; ++e) f(&m_Lin[(e * size_t(m_nL) + size_t(l)) * 3], 3);
+  };
+  for (int j0 = 0; j0 < most; j0 += B) {
+    // This round: the j-th lights of every rank for j in [j0, j0 + B).
+    std::string mine;
+    const int j1 = std::min(most, j0 + B);
+    for (int j = j0; j < j1; ++j) {
+      const int l = comm.rank() + j * R;
+      if (l >= m_nL) break;
+      each(l, [&](const float* p, int n) {
+        mine.append(reinterpret_cast<const char*>(p), size_t(n) * sizeof(float));
+      });
+    }
+    const std::vector<std::string> all = comm.allgather(mine);
+    for (int r = 0; r < R; ++r) {
+      if (r == comm.rank()) continue;
+      const std::string& got = all[size_t(r)];
+      size_t at = 0;
+      for (int j = j0; j < j1; ++j) {
+        const int l = r + j * R;
+        if (l >= m_nL) break;
+        each(l, [&](float* p, int n) {
+          const size_t bytes = size_t(n) * sizeof(float);
+          if (at + bytes > got.size())
+            throw Error("network light: rank " + std::to_string(r) + " sent " +
+                        std::to_string(got.size()) + " bytes, fewer than its lights' rows");
+          std::memcpy(p, got.data() + at, bytes);
+          at += bytes;
+        });
+      }
+      if (at != got.size())
+        throw Error("network light: rank " + std::to_string(r) + " sent " +
+                    std::to_string(got.size()) + " bytes for rows of " + std::to_string(at));
+    }
+  }
+  m_parts = 1;
+  return comm.bytesSent() + comm.bytesReceived() - before;
 }
 
 void NetworkGather::add(const Vec3& p, const Vec3& ng, const Vec3& ns, uint32_t prim,

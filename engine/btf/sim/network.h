@@ -24,6 +24,7 @@
 // points on the same side (distance-weighted), reflected by its own BRDF: kd/π · E for the
 // diffuse term and, for glossy lobes, f(ω̄, ωo) · E with ω̄ the mean incident direction.
 #pragma once
+#include <btf/core/comm.h>
 #include <btf/core/parallel.h>
 #include <btf/core/progress.h>
 #include <btf/directions/direction_set.h>
@@ -117,11 +118,23 @@ class NetworkLighting {
   /// of orders 1..P−1 (P = `bounces`) divided by cos θi (aBRDF units), and its mean incident
   /// direction when `directional` (needed by glossy receivers). lightLimit > 0 solves only the
   /// first lights (calibration of the estimate).
+  ///
+  /// A cluster job's share: with `parts` > 1 only the lights l ≡ `part` (mod parts) are solved
+  /// (the others stay zero) and share() then gives every rank every light.
   void solve(const PointNetwork& net, const TileGeometry& geom,
              const std::vector<Material>& materials, const DirectionSet& dirs,
              const LightVisibility& visibility, int bounces, GlossyGather glossy,
              ProgressReporter* progress = nullptr, const CancelToken* cancel = nullptr,
-             int lightLimit = -1);
+             int lightLimit = -1, int part = 0, int parts = 1);
+  /// After solve(…, comm.rank(), comm.size()) on every rank (a collective): every rank's lights
+  /// copied to every other, in rounds of at most `roundBytes` per rank, so that each rank holds
+  /// the arrays one process solving every light computes, to the bit. Returns the bytes this
+  /// rank sent and received.
+  uint64_t share(Comm& comm, uint64_t roundBytes = uint64_t(64) << 20);
+  /// How many lights this process solved itself (all of them without a share).
+  int solvedLights() const { return m_solvedLights; }
+  /// The lights that `solve(…, part, parts)` solves, in order.
+  static std::vector<int> lightsOfPart(int lights, int part, int parts);
   /// Before solve: add the orders past P − 1 in closed form. With the last two computed orders'
   /// totals over the network E_{P−2}, E_{P−1} (per light and channel), the ratio
   /// r = ΣE_{P−1} / ΣE_{P−2} (clamped to [0, 0.95]) continues the series: every point and link
@@ -147,7 +160,7 @@ class NetworkLighting {
   }
 
  private:
-  int m_nL = 0;
+  int m_nL = 0, m_solvedLights = 0, m_parts = 1;
   std::vector<float> m_E, m_D, m_Lin;
   GlossyGather m_glossy = GlossyGather::None;
   double m_seconds = 0, m_setupSeconds = 0;

@@ -184,15 +184,25 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
   std::unique_ptr<NetworkGather> gather;
   const auto renderStart = Clock::now();
   if (gi) {
-    ProgressReporter pr("network light", nD, m_opt.progress);
+    // A cluster job: each rank solves every R-th light and the ranks then share the solutions
+    // (a copy of each light's rows: the same arrays as one process; docs/cluster.md).
+    const int parts = dist ? comm.size() : 1, part = dist ? comm.rank() : 0;
+    ProgressReporter pr("network light", int(NetworkLighting::lightsOfPart(nD, part, parts).size()),
+                        m_opt.progress);
     lighting.solve(
         *m_network, m_geom, m_materials, m_dirs,
         [&](int l, const Vec3& p, const Vec3& ng, uint32_t prim) {
           return direct.lightVisibility(l, p, ng, prim);
         },
-        pl.bounces, glossyGather(), &pr, cancel);
+        pl.bounces, glossyGather(), &pr, cancel, -1, part, parts);
     pr.finish();
-    r.lightSeconds = lighting.solveSeconds();
+    r.lightsSolved = lighting.solvedLights();
+    if (dist) {
+      const auto t = Clock::now();
+      r.lightShareBytes = lighting.share(comm);
+      r.lightShareSeconds = since(t);
+    }
+    r.lightSeconds = lighting.solveSeconds() + r.lightShareSeconds;
     gather =
         std::make_unique<NetworkGather>(*m_network, lighting, m_geom, m_materials, m_tracer.get());
     throwIfCancelled(cancel, "network light");
@@ -499,7 +509,8 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     });
     r.outputBytes = btfFileBytes(info);
   }
-  r.commBytes = comm.bytesSent() + comm.bytesReceived() - comm0;
+  // The chunks' traffic (agreements, sums, split chunks' pieces); the light share apart.
+  r.commBytes = comm.bytesSent() + comm.bytesReceived() - comm0 - r.lightShareBytes;
   r.wallSeconds = since(start);
   r.peakRssBytes = peakRssBytes();
   return r;

@@ -359,7 +359,9 @@ TEST(Network, ReciprocalScaleEqualsThePairsSumsAndStaysBounded) {
   for (int v = 0; v < n; ++v)
     for (int l = 0; l < n; ++l)
       for (int c = 0; c < 3; ++c) {
-        if (v == l) EXPECT_FLOAT_EQ(s(v, l, c), 1.0f);
+        if (v == l) {
+          EXPECT_FLOAT_EQ(s(v, l, c), 1.0f);
+        }
         // The clamped pair and the one-way pair are checked below.
         if (((v == 2 && l == 3) || (v == 3 && l == 2)) && c == 1) continue;
         if (((v == 0 && l == 1) || (v == 1 && l == 0)) && c == 0) continue;
