@@ -199,7 +199,10 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     r.lightsSolved = lighting.solvedLights();
     if (dist) {
       const auto t = Clock::now();
-      r.lightShareBytes = lighting.share(comm);
+      // Test hook: the share's round size in bytes per rank (1: one light a round).
+      const char* round = std::getenv("BTF_TEST_LIGHT_SHARE_ROUND_BYTES");
+      r.lightShareBytes = lighting.share(
+          comm, round ? std::max<uint64_t>(1, std::strtoull(round, nullptr, 10)) : uint64_t(64) << 20);
       r.lightShareSeconds = since(t);
     }
     r.lightSeconds = lighting.solveSeconds() + r.lightShareSeconds;
