@@ -82,7 +82,7 @@ TEST(Cluster, ThreeRanksWriteTheBytesOfOneProcess) {
       // The network's light solve (both scenes have inter-reflection on): every third light on
       // each rank, the solutions shared apart from the chunks' traffic.
       lights.push_back(r["lights_solved"].get<double>());
-      EXPECT_GT(r["light_share_bytes"].get<double>(), 0);
+      EXPECT_GT(r["gi_share_bytes"].get<double>(), 0);
     }
     EXPECT_DOUBLE_EQ(texels, 16 * 16);
     EXPECT_EQ(lights, (std::vector<double>{11, 11, 10})) << j["cluster"].dump();

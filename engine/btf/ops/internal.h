@@ -55,9 +55,10 @@ void study(const Call& c);
 /// A cluster job's figures (docs/cluster.md): per rank, texels computed or encoded and bytes
 /// communicated, against that rank's bytes of aBRDF. Every rank calls it (a collective).
 /// `seconds`: the rank's own work (its chunks), to show the balance; `lightsSolved` and
-/// `lightShareBytes`: its part of the network's light solve (a simulation with inter-reflection).
+/// `giShareBytes`: its part of the network's light solve and the bytes of sharing it and the
+/// reciprocal gather's tile sums (a simulation with inter-reflection).
 ClusterFigures clusterFigures(Comm& comm, double texels, double texelBytes, uint64_t commBytes,
-                              double seconds, int lightsSolved = 0, uint64_t lightShareBytes = 0);
+                              double seconds, int lightsSolved = 0, uint64_t giShareBytes = 0);
 std::string clusterText(const ClusterFigures& cluster);
 
 // Shared by the compressing use cases (compress, simulate --compress).

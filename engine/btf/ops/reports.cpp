@@ -422,7 +422,7 @@ Json toJson(const ClusterFigures& c) {
                      {"communicated_fraction", x.communicatedFraction},
                      {"seconds", x.seconds},
                      {"lights_solved", x.lightsSolved},
-                     {"light_share_bytes", x.lightShareBytes}});
+                     {"gi_share_bytes", x.giShareBytes}});
   return {{"ranks", c.ranks},
           {"communicator", c.communicator},
           {"max_communicated_bytes", c.maxCommunicatedBytes},

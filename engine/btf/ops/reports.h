@@ -27,8 +27,9 @@ struct ClusterFigures {
   struct Rank {
     double texels = 0, dataBytes = 0, communicatedBytes = 0, communicatedFraction = 0, seconds = 0;
     // A simulation with inter-reflection: the network's lights this rank solved and the bytes of
-    // sharing every rank's solutions (apart from communicatedBytes, which is the chunks' traffic).
-    double lightsSolved = 0, lightShareBytes = 0;
+    // sharing every rank's light solutions and reciprocal-gather tile sums (apart from
+    // communicatedBytes, which is the chunks' traffic).
+    double lightsSolved = 0, giShareBytes = 0;
   };
   int ranks = 1;
   std::string communicator;

@@ -77,11 +77,11 @@ json planJson(const EffectPlan& p) {
 }  // namespace
 
 ClusterFigures clusterFigures(Comm& comm, double texels, double texelBytes, uint64_t commBytes,
-                              double seconds, int lightsSolved, uint64_t lightShareBytes) {
+                              double seconds, int lightsSolved, uint64_t giShareBytes) {
   // Per rank: texels, bytes of aBRDF it computed or encoded, bytes it sent and received, the
   // seconds of its own share, and its part of the network's light solve.
   const std::vector<double> mine = {double(texels), double(texels) * texelBytes, double(commBytes),
-                                    seconds,         double(lightsSolved),       double(lightShareBytes)};
+                                    seconds,         double(lightsSolved),       double(giShareBytes)};
   ClusterFigures f;
   double slowest = 0, total = 0;
   for (const std::string& s : comm.allgather(packDoubles(mine))) {
@@ -108,8 +108,8 @@ std::string clusterText(const ClusterFigures& cl) {
                 x.seconds, formatBytes(x.communicatedBytes).c_str(),
                 100 * x.communicatedFraction);
     if (x.lightsSolved > 0)
-      t += format(", %g network lights solved (%s shared)", x.lightsSolved,
-                  formatBytes(x.lightShareBytes).c_str());
+      t += format(", %g network lights solved (GI precompute %s shared)", x.lightsSolved,
+                  formatBytes(x.giShareBytes).c_str());
   }
   return t + "\n";
 }
@@ -285,10 +285,10 @@ void simulate(const Call& c) {
     b = enc->finishOn(comm);
     const double finishSeconds = since(f0);
     const uint64_t commBytes =
-        comm.bytesSent() + comm.bytesReceived() - comm0 - sr.lightShareBytes;
+        comm.bytesSent() + comm.bytesReceived() - comm0 - sr.giShareBytes;
     if (comm.distributed())
       res.cluster = clusterFigures(comm, sr.texelsComputed, double(info.texelBytes()), commBytes,
-                                   sr.rankEvalSeconds, sr.lightsSolved, sr.lightShareBytes);
+                                   sr.rankEvalSeconds, sr.lightsSolved, sr.giShareBytes);
     if (!comm.root()) return;
     c.ctx.check("encoder");
     b.copyVmf(vmfOnly);
@@ -322,7 +322,7 @@ void simulate(const Call& c) {
   if (comm.distributed())
     res.cluster =
         clusterFigures(comm, sr.texelsComputed, double(job.storeInfo(est.chunkTexels).texelBytes()),
-                       sr.commBytes, sr.rankEvalSeconds, sr.lightsSolved, sr.lightShareBytes);
+                       sr.commBytes, sr.rankEvalSeconds, sr.lightsSolved, sr.giShareBytes);
   const double evalRate = sr.evalSeconds > 0 ? double(sr.abrdfValues) / sr.evalSeconds : 0;
   const double rayRate = sr.hitMapSeconds > 0 ? double(sr.hitMapRays) / sr.hitMapSeconds : 0;
   res.store = SimulateResult::Store{sr.networkPoints,    sr.networkLinks,   sr.precomputeSeconds,

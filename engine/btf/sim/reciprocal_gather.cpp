@@ -58,15 +58,23 @@ std::vector<double> gatherTileSums(const NetworkGather& gather, const HitMaps& m
       cancel);
   throwIfCancelled(cancel, "reciprocal gather");
   if (R == 1) return mine;
+  // Every rank's rows (and its views' occluded fractions) to every rank.
+  std::string packed(reinterpret_cast<const char*>(mine.data()), mine.size() * sizeof(double));
+  if (occlusion)
+    packed.append(reinterpret_cast<const char*>(occlusion->data() + size_t(v0) * size_t(samples)),
+                  size_t(v1 - v0) * size_t(samples));
   std::vector<double> all(size_t(nD) * row, 0.0);
-  const std::vector<std::string> got = comm.allgather(
-      std::string(reinterpret_cast<const char*>(mine.data()), mine.size() * sizeof(double)));
+  const std::vector<std::string> got = comm.allgather(packed);
   for (int q = 0; q < R; ++q) {
     const int a = int(int64_t(nD) * q / R), b = int(int64_t(nD) * (q + 1) / R);
     const std::string& s = got[size_t(q)];
-    if (s.size() != size_t(b - a) * row * sizeof(double))
+    const size_t sums = size_t(b - a) * row * sizeof(double);
+    if (s.size() != sums + (occlusion ? size_t(b - a) * size_t(samples) : 0))
       throw Error("reciprocal gather: rank " + std::to_string(q) + " sent a wrong-sized answer");
-    std::memcpy(&all[size_t(a) * row], s.data(), s.size());
+    std::memcpy(&all[size_t(a) * row], s.data(), sums);
+    if (occlusion && q != me)
+      std::memcpy(occlusion->data() + size_t(a) * size_t(samples), s.data() + sums,
+                  size_t(b - a) * size_t(samples));
   }
   return all;
 }

@@ -26,8 +26,9 @@ namespace btf {
 /// job splits the views over its ranks and every rank gets all (the same values for any rank
 /// or thread count: each view is summed by one task, in sample order). With `occlusion`, the
 /// occluded fraction each sample's hit measured is kept for NetworkGather::setOcclusionCache
-/// (views × samples counts, 255 where not measured: another rank's views, a hit without
-/// neighbours), so that the texels' gather, which visits the same hits, traces no ray again.
+/// (views × samples counts, 255 where not measured: a hit without neighbours), every rank's
+/// views on every rank, so that the texels' gather, which visits the same hits, traces no ray
+/// again.
 std::vector<double> gatherTileSums(const NetworkGather& gather, const HitMaps& maps,
                                    const TileGeometry& geom, const DirectionSet& dirs,
                                    Comm& comm, ProgressReporter* progress = nullptr,

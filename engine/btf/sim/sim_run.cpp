@@ -201,7 +201,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
       const auto t = Clock::now();
       // Test hook: the share's round size in bytes per rank (1: one light a round).
       const char* round = std::getenv("BTF_TEST_LIGHT_SHARE_ROUND_BYTES");
-      r.lightShareBytes = lighting.share(
+      r.giShareBytes = lighting.share(
           comm, round ? std::max<uint64_t>(1, std::strtoull(round, nullptr, 10)) : uint64_t(64) << 20);
       r.lightShareSeconds = since(t);
     }
@@ -212,15 +212,17 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     if (m_opt.reciprocalGather) {
       const auto t = Clock::now();
       ProgressReporter rp("reciprocal gather", nD, m_opt.progress);
-      // Every rank sums every view itself (the same values; all-gathering the rows instead
-      // was 3–6 % of a small job's store in communication). The hits' occluded fractions are kept for the texels' gather when they fit in a
-      // sixteenth of the memory budget (one byte per hit-map sample).
+      // A cluster job: each rank sums a share of the views, and every rank gets every view's
+      // sums (and occluded fractions), counted with the light share. The hits' occluded
+      // fractions are kept for the texels' gather when they fit in a sixteenth of the memory
+      // budget (one byte per hit-map sample).
       std::vector<uint8_t> occ;
       const bool keep = uint64_t(nD) * uint64_t(maps.grid().samples()) <= m_opt.memoryBudget / 16;
+      const uint64_t c0 = comm.bytesSent() + comm.bytesReceived();
       const ReciprocalScale rs = reciprocalScale(
-          gatherTileSums(*gather, maps, m_geom, m_dirs, localComm(), &rp, cancel,
-                         keep ? &occ : nullptr),
+          gatherTileSums(*gather, maps, m_geom, m_dirs, comm, &rp, cancel, keep ? &occ : nullptr),
           nD);
+      r.giShareBytes += comm.bytesSent() + comm.bytesReceived() - c0;
       rp.finish();
       gather->setScale(rs.scale);
       if (!occ.empty()) gather->setOcclusionCache(std::move(occ), maps.grid().samples());
@@ -513,7 +515,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     r.outputBytes = btfFileBytes(info);
   }
   // The chunks' traffic (agreements, sums, split chunks' pieces); the light share apart.
-  r.commBytes = comm.bytesSent() + comm.bytesReceived() - comm0 - r.lightShareBytes;
+  r.commBytes = comm.bytesSent() + comm.bytesReceived() - comm0 - r.giShareBytes;
   r.wallSeconds = since(start);
   r.peakRssBytes = peakRssBytes();
   return r;

@@ -109,11 +109,12 @@ struct SimReport {
   int ranks = 1, chunksComputed = 0;
   double texelsComputed = 0;  // texels × views computed / views (a split chunk's share)
   double rankEvalSeconds = 0;  // this rank's aBRDF time (its chunks), before the final agreement
-  uint64_t commBytes = 0;      // the chunks' traffic, the light share apart
-  // The network's light solve: lights this rank solved (every R-th one in a cluster job) and the
-  // bytes and seconds of sharing the solutions with the other ranks.
+  uint64_t commBytes = 0;      // the chunks' traffic, the GI share apart
+  // The network's light solve: lights this rank solved (every R-th one in a cluster job); the
+  // bytes of sharing the ranks' light solutions and reciprocal-gather tile sums; the seconds of
+  // sharing the light solutions.
   int lightsSolved = 0;
-  uint64_t lightShareBytes = 0;
+  uint64_t giShareBytes = 0;
   double lightShareSeconds = 0;
 };
 
