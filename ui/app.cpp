@@ -497,7 +497,14 @@ int App::run() {
   auto last = Clock::now();
   std::string title;
   while (!glfwWindowShouldClose(m_window) && !m_quit) {
-    glfwPollEvents();
+    // A script or a screenshot run draws as fast as it needs (its own pacing, below); a user's
+    // session waits for events while nothing changes on its own.
+    const bool interactive = (m_script.is_null() && opt.screenshot.empty()) ||
+                             Clock::now() < m_interactiveUntil;
+    if (interactive)
+      waitForEvents();
+    else
+      glfwPollEvents();
     const std::string t = "BTF Studio — " + doc.scene().name + (doc.dirty() ? " *" : "") +
                           (doc.path().empty() ? "" : " (" + doc.path().string() + ")");
     if (t != title) glfwSetWindowTitle(m_window, (title = t).c_str());
@@ -547,6 +554,28 @@ int App::run() {
   ImGui_ImplGlfw_Shutdown();
   ImGui::DestroyContext();
   return m_exitStatus;  // the window goes with the App, after its GL objects
+}
+
+bool App::passRuns() const {
+  const auto o = panels.find("Objects");
+  return obj.band >= 0 && o != panels.end() && o->second;
+}
+
+void App::waitForEvents() {
+  // After an event ImGui needs a few frames to settle (hover, layout, popups); an object pass
+  // draws a band a frame; a job or the preview worker changes what the panels show ten times a
+  // second at most; otherwise the studio sleeps until an event (or half a second: messages that
+  // time out, a file dropped).
+  if (m_settleFrames > 0 || passRuns() || !m_screenshotPending.empty()) {
+    if (m_settleFrames > 0) --m_settleFrames;
+    glfwPollEvents();
+    return;
+  }
+  const double timeout = jobs.busy() || preview.working() ? 0.1 : 0.5;
+  const auto t0 = Clock::now();
+  glfwWaitEventsTimeout(timeout);
+  if (std::chrono::duration<double>(Clock::now() - t0).count() < 0.9 * timeout)
+    m_settleFrames = 3;  // woken by an event
 }
 
 SceneView App::sceneView() {

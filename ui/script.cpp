@@ -505,6 +505,20 @@ bool App::scriptStep() {
            m_scriptWaitFrames = a["frames"];
            return std::nullopt;
          }},
+        {"interactive",
+         [&]() -> std::optional<bool> {
+           // The pacing of a user's session (waits for events while nothing runs) for that many
+           // seconds; the report's frames_drawn shows it.
+           const json& v = a["interactive"];
+           if (!v.is_number() || !(v.get<double>() > 0 && v.get<double>() <= 600))
+             return fail("interactive: expected seconds in (0, 600], got " + v.dump());
+           m_interactiveUntil = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                   std::chrono::duration<double>(v.get<double>()));
+           m_waitUntil = m_interactiveUntil;
+           m_settleFrames = 0;
+           m_report["interactive_from_frame"] = m_frames;
+           return std::nullopt;
+         }},
         {"sleep",
          [&]() -> std::optional<bool> {
            m_waitUntil =

@@ -500,6 +500,34 @@ TEST(Studio, TheTileViewIsDrawnOnlyWhenWhatItShowsChanges) {
       << moved.dump();
 }
 
+TEST(Studio, AnIdleSessionWaitsForEventsAndAJobRedrawsTenTimesASecond) {
+  // A user's session (the pacing {"interactive": s} gives a script): with nothing running the
+  // studio sleeps until an event or half a second, where a script's sleep draws every frame it
+  // can; while a job runs, ten frames a second at most.
+  const auto dir = tempDir("ui_studio_idle");
+  std::string log;
+  auto frames = [&](bool job) {
+    json a = json::array({{{"new", true}}, {{"wait_preview", 60}}});
+    if (job)
+      a.push_back({{"simulate",
+                    {{"output", (dir / "x.btf").string()}, {"texels", 64}, {"directions", "bonn81"}}}});
+    a.push_back({{"interactive", 2.0}});
+    if (job) a.push_back({{"cancel", "last"}});
+    a.push_back({{"report", (dir / "r.json").string()}});
+    EXPECT_EQ(runStudio(a, dir, &log), 0) << log;
+    const json r = json::parse(readFile(dir / "r.json"));
+    return r.at("frames_drawn").get<int>() - r.at("interactive_from_frame").get<int>();
+  };
+  const int idle = frames(false), busy = frames(true);
+  std::cout << "frames in 2 s: idle " << idle << ", while a job runs " << busy << "\n";
+  // 2 s at one frame per half second, the report's frames after it.
+  EXPECT_LE(idle, 8);
+  EXPECT_GE(idle, 1);
+  // At most one frame per 100 ms (and a few more to settle).
+  EXPECT_LE(busy, 26);
+  EXPECT_GT(busy, idle);
+}
+
 TEST(Studio, SaysClearlyWhenThereIsNoDisplay) {
   const auto dir = tempDir("ui_studio_nodisplay");
   const std::string cmd =
@@ -532,6 +560,10 @@ TEST(Studio, ScriptErrorsNameTheActionAndExitNonZero) {
   json e = json::array({{{"object", "sphere"}, {"render_scale", 2}}});
   EXPECT_EQ(runStudio(e, dir, &log), 1);
   EXPECT_NE(log.find("action 1: object: render_scale must be in [0.25, 1]"), std::string::npos)
+      << log;
+  json g = json::array({{{"interactive", -1}}});
+  EXPECT_EQ(runStudio(g, dir, &log), 1);
+  EXPECT_NE(log.find("action 1: interactive: expected seconds in (0, 600]"), std::string::npos)
       << log;
   json f = json::array({{{"open_compressed", "x.cbtf"}, {"gpu_table_mib", 0}}});
   EXPECT_EQ(runStudio(f, dir, &log), 1);
