@@ -501,10 +501,13 @@ int App::run() {
     // session waits for events while nothing changes on its own.
     const bool interactive = (m_script.is_null() && opt.screenshot.empty()) ||
                              Clock::now() < m_interactiveUntil;
-    if (interactive)
+    if (interactive) {
+      const auto w0 = Clock::now();
       waitForEvents();
-    else
+      last += Clock::now() - w0;  // the frame time shown is drawing, not waiting for events
+    } else {
       glfwPollEvents();
+    }
     const std::string t = "BTF Studio — " + doc.scene().name + (doc.dirty() ? " *" : "") +
                           (doc.path().empty() ? "" : " (" + doc.path().string() + ")");
     if (t != title) glfwSetWindowTitle(m_window, (title = t).c_str());
