@@ -502,9 +502,7 @@ int App::run() {
     const bool interactive = (m_script.is_null() && opt.screenshot.empty()) ||
                              Clock::now() < m_interactiveUntil;
     if (interactive) {
-      const auto w0 = Clock::now();
-      waitForEvents();
-      last += Clock::now() - w0;  // the frame time shown is drawing, not waiting for events
+      last += waitForEvents();  // the frame time shown is drawing, not waiting for events
     } else {
       glfwPollEvents();
     }
@@ -564,7 +562,7 @@ bool App::passRuns() const {
   return obj.band >= 0 && o != panels.end() && o->second;
 }
 
-void App::waitForEvents() {
+Clock::duration App::waitForEvents() {
   // After an event ImGui needs a few frames to settle (hover, layout, popups); an object pass
   // draws a band a frame; a job or the preview worker changes what the panels show ten times a
   // second at most; otherwise the studio sleeps until an event (or half a second: messages that
@@ -572,13 +570,15 @@ void App::waitForEvents() {
   if (m_settleFrames > 0 || passRuns() || !m_screenshotPending.empty()) {
     if (m_settleFrames > 0) --m_settleFrames;
     glfwPollEvents();
-    return;
+    return Clock::duration::zero();
   }
   const double timeout = jobs.busy() || preview.working() ? 0.1 : 0.5;
   const auto t0 = Clock::now();
   glfwWaitEventsTimeout(timeout);
-  if (std::chrono::duration<double>(Clock::now() - t0).count() < 0.9 * timeout)
+  const Clock::duration waited = Clock::now() - t0;
+  if (std::chrono::duration<double>(waited).count() < 0.9 * timeout)
     m_settleFrames = 3;  // woken by an event
+  return waited;
 }
 
 SceneView App::sceneView() {

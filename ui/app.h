@@ -131,8 +131,8 @@ class App : public StudioActions {
   void handleShortcuts();
   void handleDrop();
   bool scriptStep();  // false when the script has ended
-  // Interactive pacing: waits for events while nothing changes on its own (waitForEvents).
-  void waitForEvents();
+  // Interactive pacing: waits for events while nothing changes on its own; returns how long.
+  std::chrono::steady_clock::duration waitForEvents();
   bool passRuns() const;   // the Objects panel is open and its pass is being drawn
   int m_settleFrames = 3;  // frames still drawn at full rate after an event
   // A script's {"interactive": seconds}: the interactive pacing until then (its test).

@@ -514,7 +514,7 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     });
     r.outputBytes = btfFileBytes(info);
   }
-  // The chunks' traffic (agreements, sums, split chunks' pieces); the light share apart.
+  // The chunks' traffic (agreements, sums, split chunks' pieces); the GI share apart.
   r.commBytes = comm.bytesSent() + comm.bytesReceived() - comm0 - r.giShareBytes;
   r.wallSeconds = since(start);
   r.peakRssBytes = peakRssBytes();
