@@ -65,6 +65,28 @@ void execute(cl::Clipper& c, cl::ClipType type, cl::Paths* out) {
   }
 }
 
+inline double xOf(const P2& p) { return p.x; }
+inline double yOf(const P2& p) { return p.y; }
+inline double xOf(const cl::IntPoint& p) { return double(p.X); }
+inline double yOf(const cl::IntPoint& p) { return double(p.Y); }
+
+// A closed ring in doubles (a face's local integers, converted exactly) with its bounds.
+struct DRing {
+  std::vector<P2> pts;
+  double x0, x1, y0, y1;
+};
+
+void toRing(const cl::IntPoint* p, size_t n, DRing* r) {
+  r->pts.resize(n);
+  r->x0 = r->y0 = 1e300, r->x1 = r->y1 = -1e300;
+  for (size_t i = 0; i < n; ++i) {
+    const double x = double(p[i].X), y = double(p[i].Y);
+    r->pts[i] = {x, y};
+    r->x0 = std::min(r->x0, x), r->x1 = std::max(r->x1, x);
+    r->y0 = std::min(r->y0, y), r->y1 = std::max(r->y1, y);
+  }
+}
+
 constexpr uint8_t kHidden = 0, kWhole = 1, kPartial = 2;
 constexpr double kIntRange = double(1 << 29);  // local coordinates × scale stay within ±2^29
 
@@ -98,6 +120,14 @@ struct ExactDirect::DirRegions {
     }
     ringBegin.push_back(uint32_t(ptBegin.size() - 1));
   }
+  /// Partial face f's rings: ring r's points are pts[ptBegin[r] .. ptBegin[r + 1]) for r in
+  /// [*r0, *r1) — read in place (no copy).
+  void ringRange(uint32_t f, uint32_t* r0, uint32_t* r1) const {
+    const auto it = std::lower_bound(partialFace.begin(), partialFace.end(), f);
+    BTF_CHECK(it != partialFace.end() && *it == f);
+    const size_t k = size_t(it - partialFace.begin());
+    *r0 = ringBegin[k], *r1 = ringBegin[k + 1];
+  }
   void paths(uint32_t f, cl::Paths* out) const {
     out->clear();
     const auto it = std::lower_bound(partialFace.begin(), partialFace.end(), f);
@@ -112,6 +142,71 @@ struct ExactDirect::DirRegions {
            sizeof(cl::IntPoint) * pts.size();
   }
 };
+
+namespace {
+
+// The intersection of two regions of one face (rings of a DirRegions each: outer rings
+// counter-clockwise, holes clockwise), handed to emit(points, n, weights) as rings whose signed
+// areas add up to the intersection's — over any cell, which is all the area raster needs. No
+// polygon boolean: the region with fewer points is cut into the triangles of a fan per ring
+// (a ring's winding number is the sum of its fan triangles', each signed by its orientation),
+// and every ring of the other is clipped to each triangle by three half-planes (Sutherland–
+// Hodgman keeps a ring's winding number inside a convex window, 0 outside). The rings handed on
+// may hold zero-width parts along the window's sides; they add no area.
+template <class Regions, class Band, class Emit>
+void intersectInto(const Regions& RA, uint32_t a0, uint32_t a1, const Regions& RB, uint32_t b0,
+                   uint32_t b1, const double* w, Band&& meetsBand, Emit&& emit) {
+  auto points = [](const Regions& R, uint32_t r0, uint32_t r1) {
+    return size_t(R.ptBegin[r1] - R.ptBegin[r0]);
+  };
+  const bool swap = points(RA, a0, a1) < points(RB, b0, b1);
+  const Regions& clipped = swap ? RB : RA;  // its rings are clipped
+  const Regions& fan = swap ? RA : RB;      // its rings are cut into triangles
+  const uint32_t c0 = swap ? b0 : a0, c1 = swap ? b1 : a1;
+  const uint32_t f0 = swap ? a0 : b0, f1 = swap ? a1 : b1;
+  thread_local std::vector<DRing> rings;
+  thread_local std::vector<P2> poly, tmp;
+  const size_t nr = c1 - c0;
+  if (rings.size() < nr) rings.resize(nr);
+  for (size_t k = 0; k < nr; ++k) {
+    const uint32_t r = c0 + uint32_t(k);
+    toRing(&clipped.pts[clipped.ptBegin[r]], clipped.ptBegin[r + 1] - clipped.ptBegin[r],
+           &rings[k]);
+  }
+  const double wn[3] = {-w[0], -w[1], -w[2]};
+  for (uint32_t r = f0; r < f1; ++r) {
+    const cl::IntPoint* q = &fan.pts[fan.ptBegin[r]];
+    const size_t n = fan.ptBegin[r + 1] - fan.ptBegin[r];
+    const P2 p0{double(q[0].X), double(q[0].Y)};
+    for (size_t k = 1; k + 1 < n; ++k) {
+      P2 t1{double(q[k].X), double(q[k].Y)}, t2{double(q[k + 1].X), double(q[k + 1].Y)};
+      const double det = (t1.x - p0.x) * (t2.y - p0.y) - (t2.x - p0.x) * (t1.y - p0.y);
+      if (det == 0) continue;  // no area
+      if (det < 0) std::swap(t1, t2);
+      const P2 t[3] = {p0, t1, t2};
+      const double tx0 = std::min({p0.x, t1.x, t2.x}), tx1 = std::max({p0.x, t1.x, t2.x});
+      const double ty0 = std::min({p0.y, t1.y, t2.y}), ty1 = std::max({p0.y, t1.y, t2.y});
+      if (!meetsBand(t, 3)) continue;  // none of the rows evaluated
+      for (size_t m = 0; m < nr; ++m) {
+        const DRing& R = rings[m];
+        if (R.x1 <= tx0 || R.x0 >= tx1 || R.y1 <= ty0 || R.y0 >= ty1) continue;
+        const P2 box[4] = {{R.x0, R.y0}, {R.x1, R.y0}, {R.x0, R.y1}, {R.x1, R.y1}};
+        if (!meetsBand(box, 4)) continue;
+        poly = R.pts;
+        for (int e = 0; e < 3 && poly.size() >= 3; ++e) {
+          const P2& u = t[e];
+          const P2& v = t[(e + 1) % 3];
+          const double ea = -(v.y - u.y), eb = v.x - u.x;  // left of u → v: inside
+          clipHalf(poly, ea, eb, -(ea * u.x + eb * u.y), &tmp);
+          poly.swap(tmp);
+        }
+        if (poly.size() >= 3) emit(poly.data(), poly.size(), det > 0 ? w : wn);
+      }
+    }
+  }
+}
+
+}  // namespace
 
 // A face seen from the view being evaluated: its map from local integers to the view's texel
 // cells, and what its shading needs.
@@ -437,17 +532,19 @@ void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& 
   const DirRegions* RV = &m_regions[size_t(view)];
   cl::Paths pv, pl, sol;
   const bool allRows = row0 == 0 && row1 == m_nv;
+  // Whether cell rows [y0, y1] (unwrapped) meet rows [row0, row1) wrapped: a chunk of texels
+  // reads a band of the grid.
+  auto rowsMet = [&](double y0, double y1) {
+    if (allRows || y1 - y0 >= m_nv) return true;
+    int r0 = int(std::floor(y0)) % m_nv;
+    if (r0 < 0) r0 += m_nv;
+    const int r1 = r0 + int(std::floor(y1) - std::floor(y0));  // inclusive, may pass nv
+    return (r0 < row1 && r1 >= row0) || (r1 >= m_nv && r1 - m_nv >= row0);
+  };
   for (const ViewFace& V : faces) {
     const uint8_t sl = RL.state[V.face];
     if (sl == kHidden) continue;
-    if (!allRows && V.y1 - V.y0 < m_nv) {
-      // Only faces over rows [row0, row1) (wrapped): a chunk of texels reads a band.
-      int r0 = int(std::floor(V.y0)) % m_nv;
-      if (r0 < 0) r0 += m_nv;
-      const int r1 = r0 + int(std::floor(V.y1) - std::floor(V.y0));  // inclusive, may pass nv
-      const bool meets = (r0 < row1 && r1 >= row0) || (r1 >= m_nv && r1 - m_nv >= row0);
-      if (!meets) continue;
-    }
+    if (!rowsMet(V.y0, V.y1)) continue;
     const float cosN = glm::dot(V.ns, wl), cn = glm::dot(V.ng, wl);
     if (cosN <= 0 || cn <= 0) continue;  // the light is on the other side
     if (!V.lambert && V.wo.z <= 0) continue;
@@ -457,36 +554,40 @@ void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& 
     const double wgt[3] = {double(val.x) * V.orient, double(val.y) * V.orient,
                            double(val.z) * V.orient};
     const Face& F = m_faces[V.face];
-    const uint8_t sv = RV->state[V.face];
-    if (sv == kWhole && sl == kWhole) {
-      sol.assign(1, F.tri);
-    } else if (sv == kWhole) {
-      RL.paths(V.face, &sol);
-    } else if (sl == kWhole) {
-      RV->paths(V.face, &sol);
-    } else {
-      RV->paths(V.face, &pv);
-      RL.paths(V.face, &pl);
-      cl::Clipper c;
-      c.AddPaths(pv, cl::ptSubject, true);
-      c.AddPaths(pl, cl::ptClip, true);
-      execute(c, cl::ctIntersection, &sol);
-    }
-    for (const cl::Path& ring : sol) {
-      const size_t n = ring.size();
-      if (n < 3) continue;
-      auto px = [&](const cl::IntPoint& p) {
-        return V.cx[0] + V.cx[1] * double(p.X) + V.cx[2] * double(p.Y);
-      };
-      auto py = [&](const cl::IntPoint& p) {
-        return V.cy[0] + V.cy[1] * double(p.X) + V.cy[2] * double(p.Y);
-      };
-      double x0 = px(ring[n - 1]), y0 = py(ring[n - 1]);
+    auto px = [&](double X, double Y) { return V.cx[0] + V.cx[1] * X + V.cx[2] * Y; };
+    auto py = [&](double X, double Y) { return V.cy[0] + V.cy[1] * X + V.cy[2] * Y; };
+    // One ring (local integers or doubles) into the raster, projected onto the cells.
+    auto emit = [&](const auto* pts, size_t n, const double* w) {
+      if (n < 3) return;
+      double x0 = px(xOf(pts[n - 1]), yOf(pts[n - 1])), y0 = py(xOf(pts[n - 1]), yOf(pts[n - 1]));
       for (size_t i = 0; i < n; ++i) {
-        const double x1 = px(ring[i]), y1 = py(ring[i]);
-        raster->addEdge(x0, y0, x1, y1, wgt);
+        const double x1 = px(xOf(pts[i]), yOf(pts[i])), y1 = py(xOf(pts[i]), yOf(pts[i]));
+        raster->addEdge(x0, y0, x1, y1, w);
         x0 = x1, y0 = y1;
       }
+    };
+    const uint8_t sv = RV->state[V.face];
+    uint32_t v0 = 0, v1 = 0, l0 = 0, l1 = 0;
+    if (sv == kPartial) RV->ringRange(V.face, &v0, &v1);
+    if (sl == kPartial) RL.ringRange(V.face, &l0, &l1);
+    if (sv == kWhole && sl == kWhole) {
+      emit(F.tri.data(), 3, wgt);
+    } else if (sv == kWhole || sl == kWhole) {
+      const DirRegions& R = sv == kWhole ? RL : *RV;
+      for (uint32_t r = sv == kWhole ? l0 : v0, e = sv == kWhole ? l1 : v1; r < e; ++r)
+        emit(&R.pts[R.ptBegin[r]], R.ptBegin[r + 1] - R.ptBegin[r], wgt);
+    } else {
+      // Pieces (of the face's local integers) wholly outside the band are left out.
+      auto meetsBand = [&](const P2* p, int n) {
+        if (allRows) return true;
+        double y0 = 1e300, y1 = -1e300;
+        for (int k = 0; k < n; ++k) {
+          const double y = py(p[k].x, p[k].y);
+          y0 = std::min(y0, y), y1 = std::max(y1, y);
+        }
+        return rowsMet(y0, y1);
+      };
+      intersectInto(*RV, v0, v1, RL, l0, l1, wgt, meetsBand, emit);
     }
   }
   raster->resolve();
