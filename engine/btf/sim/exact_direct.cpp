@@ -593,10 +593,42 @@ void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& 
   raster->resolve();
 }
 
+void ExactDirect::setRowCache(uint64_t bytes) {
+  const uint64_t rowBytes = uint64_t(m_dirs.size()) * uint64_t(m_dirs.size()) *
+                            uint64_t(m_nu) * 3 * sizeof(float);  // one row of every view
+  m_blockRows = int(std::min<uint64_t>(uint64_t(m_nv), bytes / rowBytes));
+  m_rowBlocks.clear();
+  if (m_blockRows < 2) {
+    m_blockRows = 0;
+    return;
+  }
+  for (int v = 0; v < m_dirs.size(); ++v) m_rowBlocks.push_back(std::make_unique<RowBlock>());
+}
+
 void ExactDirect::evalView(int view, int64_t t0, int64_t t1, float* out,
                            size_t texelStride) const {
   BTF_CHECK(m_prepared && view >= 0 && view < m_dirs.size());
   BTF_CHECK(t0 >= 0 && t1 <= int64_t(m_nu) * m_nv && t0 < t1);
+  const int row0 = int(t0 / m_nu), row1 = int((t1 - 1) / m_nu) + 1;
+  if (m_blockRows <= row1 - row0) {
+    evalRows(view, t0, t1, out, texelStride);
+    return;
+  }
+  RowBlock& B = *m_rowBlocks[size_t(view)];
+  const size_t nL3 = size_t(m_dirs.size()) * 3;
+  std::lock_guard<std::mutex> hold(B.lock);
+  if (!(B.r0 <= row0 && row1 <= B.r1)) {
+    B.r0 = row0, B.r1 = std::min(m_nv, row0 + m_blockRows);
+    B.values.resize(size_t(B.r1 - B.r0) * size_t(m_nu) * nL3);
+    evalRows(view, int64_t(B.r0) * m_nu, int64_t(B.r1) * m_nu, B.values.data(), nL3);
+  }
+  const int64_t base = int64_t(B.r0) * m_nu;
+  for (int64_t t = t0; t < t1; ++t)
+    std::copy_n(&B.values[size_t(t - base) * nL3], nL3, out + size_t(t - t0) * texelStride);
+}
+
+void ExactDirect::evalRows(int view, int64_t t0, int64_t t1, float* out,
+                           size_t texelStride) const {
   const int row0 = int(t0 / m_nu), row1 = int((t1 - 1) / m_nu) + 1;
   thread_local std::vector<ViewFace> faces;
   thread_local AreaRaster raster;

@@ -17,6 +17,8 @@
 #include <btf/sim/area_raster.h>
 
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace btf {
@@ -57,6 +59,11 @@ class ExactDirect {
   bool allFlat() const { return m_stats.flatFaces == m_stats.faces; }
   const ExactStats& stats() const { return m_stats; }
 
+  /// Up to `bytes` (0: none) of whole rows of every view kept between evalView calls: a run
+  /// whose chunks hold a few rows each computes a block of rows per view once, and the chunks
+  /// after it copy theirs (a face is clipped once per block, not once per chunk it spans). The
+  /// values are the same bits either way. Not while evalView runs.
+  void setRowCache(uint64_t bytes);
   /// The flat faces' direct aBRDF of texels [t0, t1) (row-major over nu) seen from `view`, every
   /// light: texel t's light l, channel c at out[(t − t0)·texelStride + 3·l + c] (overwritten).
   void evalView(int view, int64_t t0, int64_t t1, float* out, size_t texelStride) const;
@@ -76,7 +83,13 @@ class ExactDirect {
   struct Face;
   struct DirRegions;
   struct ViewFace;
+  struct RowBlock {  // rows [r0, r1) of one view, every light: (t − r0·nu)·nL·3 + 3·l + c
+    std::mutex lock;
+    int r0 = 0, r1 = 0;
+    std::vector<float> values;
+  };
   void hsr(int dir, DirRegions* out, int64_t* tests) const;
+  void evalRows(int view, int64_t t0, int64_t t1, float* out, size_t texelStride) const;
   void prepareView(int view, std::vector<ViewFace>* faces, int* width) const;
   void rasterLight(int view, int light, const std::vector<ViewFace>& faces, int width, int row0, int row1,
                    AreaRaster* raster) const;
@@ -88,6 +101,8 @@ class ExactDirect {
   std::vector<Face> m_faces;
   std::vector<DirRegions> m_regions;  // per direction
   ExactStats m_stats;
+  std::vector<std::unique_ptr<RowBlock>> m_rowBlocks;  // per view, when setRowCache gave rows
+  int m_blockRows = 0;
   bool m_prepared = false;
   bool m_everyFace = false;
 };

@@ -175,6 +175,18 @@ SimReport SimulationJob::run(const std::string& outPath, const SimEstimate& est,
     r.exactSeconds = since(t);
   }
   r.visibility = visibilityName();
+  if (m_exact) {
+    // Blocks of rows per view from what the budget leaves (at most 1 GiB): chunks of a row or
+    // two then share each face's clipping (the same bits).
+    const uint64_t spare = m_opt.memoryBudget > est.memoryBytes ? m_opt.memoryBudget - est.memoryBytes : 0;
+    m_exact->setRowCache(std::min<uint64_t>(spare / 2, 1ull << 30));
+  }
+  struct DropRows {
+    ExactDirect* ex;
+    ~DropRows() {
+      if (ex) ex->setRowCache(0);
+    }
+  } dropRows{m_exact.get()};
   const ShadowMode mode = pl.selfShadowing ? m_opt.shadows : ShadowMode::None;
   DirectIllumination direct(*m_tracer, m_materials, m_dirs, maps,
                             {mode, m_opt.shadowBias, m_opt.grazingRays});

@@ -301,6 +301,39 @@ TEST(ExactDirect, SeenAreasPartitionTheTileOnEveryResourceScene) {
   }
 }
 
+TEST(ExactDirect, ChunksOfOneRowGiveTheSameBitsWithTheRowCacheAsWithout) {
+  // A run's chunks hold a row or two; the row cache computes a block of rows per view once.
+  const auto dir = std::filesystem::path(test::sourceDir()) / "resources" / "scenes";
+  const DirectionSet dirs = DirectionSet::subset(
+      "t", {dirDeg(0, 0), dirDeg(35, 20), dirDeg(60, 190), dirDeg(78, 300)});
+  const int n = 8, nL3 = 3 * dirs.size();
+  for (const char* name : {"brick.json", "vgrooves.json"}) {
+    SCOPED_TRACE(name);
+    const Scene s = loadScene(dir / name);
+    const TileGeometry g = buildTileGeometry(s);
+    const auto mats = compileMaterials(s);
+    ExactDirect plain(g, mats, dirs, n, n), cached(g, mats, dirs, n, n);
+    plain.prepare();
+    cached.prepare();
+    cached.setRowCache(uint64_t(3) * n * dirs.size() * nL3 * sizeof(float));  // 3 rows a block
+    int64_t nonzero = 0;
+    for (int v = 0; v < dirs.size(); ++v) {
+      std::vector<float> a(size_t(n) * n * nL3, -1.f), b(a.size(), -2.f), whole(a.size(), -3.f);
+      for (int j = 0; j < n; ++j) {  // one row a call, as chunks of n texels
+        plain.evalView(v, int64_t(j) * n, int64_t(j + 1) * n, &a[size_t(j) * n * nL3], nL3);
+        cached.evalView(v, int64_t(j) * n, int64_t(j + 1) * n, &b[size_t(j) * n * nL3], nL3);
+      }
+      plain.evalView(v, 0, int64_t(n) * n, whole.data(), nL3);  // the grid in one call
+      for (size_t k = 0; k < a.size(); ++k) {
+        ASSERT_EQ(a[k], b[k]) << v << " " << k;
+        ASSERT_EQ(a[k], whole[k]) << v << " " << k;
+        nonzero += a[k] > 0;
+      }
+    }
+    EXPECT_GT(nonzero, int64_t(n) * n * dirs.size());
+  }
+}
+
 TEST(ExactDirect, DegenerateTrianglesChangeNothing) {
   const TileGeometry clean = boxOnFloor(0.33, 0.58, 0.21, 0.67, 0.2);
   TileGeometry dirty = clean;
