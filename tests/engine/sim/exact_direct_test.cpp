@@ -16,8 +16,9 @@ namespace {
 
 using DVec2 = glm::dvec2;
 
-// An independent reference: the area of convex polygon `p` inside the rectangle [x0,x1]×[y0,y1].
-double clippedArea(std::vector<DVec2> p, double x0, double x1, double y0, double y1) {
+// An independent reference: the area of convex polygon `p` inside the rectangle [x0,x1]×[y0,y1],
+// and its first moments ∫x, ∫y there (the polygon formulas).
+glm::dvec3 clippedMoments(std::vector<DVec2> p, double x0, double x1, double y0, double y1) {
   auto clip = [&](auto inside, auto cross) {
     std::vector<DVec2> o;
     for (size_t i = 0; i < p.size(); ++i) {
@@ -37,12 +38,18 @@ double clippedArea(std::vector<DVec2> p, double x0, double x1, double y0, double
   clip([&](DVec2 a) { return a.x <= x1; }, atX(x1));
   clip([&](DVec2 a) { return a.y >= y0; }, atY(y0));
   clip([&](DVec2 a) { return a.y <= y1; }, atY(y1));
-  double s = 0;
+  double s = 0, mx = 0, my = 0;
   for (size_t i = 0; i < p.size(); ++i) {
     const DVec2 a = p[i], b = p[(i + 1) % p.size()];
-    s += a.x * b.y - b.x * a.y;
+    const double cr = a.x * b.y - b.x * a.y;
+    s += cr, mx += (a.x + b.x) * cr, my += (a.y + b.y) * cr;
   }
-  return std::abs(0.5 * s);
+  const double sg = s < 0 ? -1.0 : 1.0;
+  return {sg * 0.5 * s, sg * mx / 6, sg * my / 6};
+}
+
+double clippedArea(std::vector<DVec2> p, double x0, double x1, double y0, double y1) {
+  return clippedMoments(std::move(p), x0, x1, y0, y1).x;
 }
 
 double overlap(double a0, double a1, double b0, double b1) {
@@ -87,6 +94,56 @@ TEST(AreaRaster, CellAreasOfATriangleARectangleWithAHoleAndWrappedCopies) {
     }
   EXPECT_NEAR(total, 2 * 0.5 * std::abs((3.0 * 2.4) - (0.7 * 0.2)) + 0.5 * (4.4 * 1.55 - 1.8 * 0.7),
               1e-12);
+}
+
+TEST(AreaRaster, LinearIntegrandsGiveEachCellTheirExactIntegralFoldedAndWrapped) {
+  // f_k(x, y) = a_k + b_k x + g_k y over a triangle (and its copy one period right and one
+  // below, which folds onto it) and a rectangle with a hole: every cell gets ∫ f over its part,
+  // Σ over the polygons of area · a + b ∫x + g ∫y (the copy at its own, unwrapped, coordinates).
+  const int nu = 5, nv = 4;
+  const std::vector<DVec2> tri = {{0.5, 0.5}, {3.5, 0.7}, {1.2, 2.9}};
+  const std::vector<DVec2> outer = {{0.3, 2.25}, {4.7, 2.25}, {4.7, 3.8}, {0.3, 3.8}};
+  const std::vector<DVec2> hole = {{2.1, 2.6}, {2.1, 3.3}, {3.9, 3.3}, {3.9, 2.6}};
+  const double a[3] = {0.7, -0.2, 1.5}, b[3] = {0.3, 0.05, -0.4}, g[3] = {-0.25, 0.6, 0.1};
+  AreaRaster r;
+  r.reset(nu, nv, 0, nv, nu + 6, true);
+  auto add = [&](const std::vector<DVec2>& p, DVec2 shift) {
+    for (size_t i = 0; i < p.size(); ++i) {
+      const DVec2 u = p[i] + shift, v = p[(i + 1) % p.size()] + shift;
+      r.addLinearEdge(u.x, u.y, v.x, v.y, a, b, g);
+    }
+  };
+  add(tri, {0, 0});
+  add(tri, {nu, -nv});
+  add(outer, {0, 0});
+  add(hole, {0, 0});
+  r.resolve();
+  for (int j = 0; j < nv; ++j)
+    for (int i = 0; i < nu; ++i)
+      for (int k = 0; k < 3; ++k) {
+        auto f = [&](const glm::dvec3& m) { return a[k] * m.x + b[k] * m.y + g[k] * m.z; };
+        // The copy: its part in cell (i + nu, j − nv) has x larger by nu and y smaller by nv.
+        const glm::dvec3 c = clippedMoments(tri, i, i + 1, j, j + 1);
+        const glm::dvec3 copy = {c.x, c.y + nu * c.x, c.z - nv * c.x};
+        glm::dvec3 rect = clippedMoments(outer, i, i + 1, j, j + 1) -
+                          clippedMoments(hole, i, i + 1, j, j + 1);
+        const double want = f(c) + f(copy) + f(rect);
+        EXPECT_NEAR(r.value(i, j, k), want, 1e-12) << i << "," << j << " channel " << k;
+      }
+  // A constant integrand through the linear path equals addEdge's area.
+  AreaRaster flat, lin;
+  flat.reset(nu, nv, 0, nv, nu + 6);
+  lin.reset(nu, nv, 0, nv, nu + 6, true);
+  const double one[3] = {1, 1, 1}, zero[3] = {0, 0, 0};
+  for (size_t i = 0; i < tri.size(); ++i) {
+    const DVec2 u = tri[i], v = tri[(i + 1) % tri.size()];
+    flat.addEdge(u.x, u.y, v.x, v.y, one);
+    lin.addLinearEdge(u.x, u.y, v.x, v.y, one, zero, zero);
+  }
+  flat.resolve();
+  lin.resolve();
+  for (int j = 0; j < nv; ++j)
+    for (int i = 0; i < nu; ++i) EXPECT_NEAR(lin.value(i, j, 0), flat.value(i, j, 0), 1e-14);
 }
 
 // ----- tiles built by hand: flat quads, counter-clockwise seen from their normal's side
