@@ -99,6 +99,7 @@ struct ExactDirect::Face {
   P2 loc[3];     // the triangle in local coordinates (counter-clockwise)
   cl::Path tri;  // the same in integers
   Vec3 ns{0};    // the constant shading normal (flat faces)
+  Vec3 vn[3];    // the shading normals at the vertices (smooth faces)
   uint16_t material = 0;
   bool valid = false, flat = false;
 };
@@ -146,7 +147,7 @@ struct ExactDirect::DirRegions {
 namespace {
 
 // The intersection of two regions of one face (rings of a DirRegions each: outer rings
-// counter-clockwise, holes clockwise), handed to emit(points, n, weights) as rings whose signed
+// counter-clockwise, holes clockwise), handed to emit(points, n, positive) as rings whose signed
 // areas add up to the intersection's — over any cell, which is all the area raster needs. No
 // polygon boolean: the region with fewer points is cut into the triangles of a fan per ring
 // (a ring's winding number is the sum of its fan triangles', each signed by its orientation),
@@ -155,7 +156,7 @@ namespace {
 // may hold zero-width parts along the window's sides; they add no area.
 template <class Regions, class Band, class Emit>
 void intersectInto(const Regions& RA, uint32_t a0, uint32_t a1, const Regions& RB, uint32_t b0,
-                   uint32_t b1, const double* w, Band&& meetsBand, Emit&& emit) {
+                   uint32_t b1, Band&& meetsBand, Emit&& emit) {
   auto points = [](const Regions& R, uint32_t r0, uint32_t r1) {
     return size_t(R.ptBegin[r1] - R.ptBegin[r0]);
   };
@@ -173,7 +174,6 @@ void intersectInto(const Regions& RA, uint32_t a0, uint32_t a1, const Regions& R
     toRing(&clipped.pts[clipped.ptBegin[r]], clipped.ptBegin[r + 1] - clipped.ptBegin[r],
            &rings[k]);
   }
-  const double wn[3] = {-w[0], -w[1], -w[2]};
   for (uint32_t r = f0; r < f1; ++r) {
     const cl::IntPoint* q = &fan.pts[fan.ptBegin[r]];
     const size_t n = fan.ptBegin[r + 1] - fan.ptBegin[r];
@@ -200,7 +200,7 @@ void intersectInto(const Regions& RA, uint32_t a0, uint32_t a1, const Regions& R
           clipHalf(poly, ea, eb, -(ea * u.x + eb * u.y), &tmp);
           poly.swap(tmp);
         }
-        if (poly.size() >= 3) emit(poly.data(), poly.size(), det > 0 ? w : wn);
+        if (poly.size() >= 3) emit(poly.data(), poly.size(), det > 0);
       }
     }
   }
@@ -220,6 +220,12 @@ struct ExactDirect::ViewFace {
   Vec3 wo;
   const Material* mat;
   bool lambert;
+  // Smooth faces: the vertices in cell coordinates, their shading normals (turned toward the
+  // viewer), frames and the view in them.
+  bool smooth = false;
+  double vx[3], vy[3];
+  Vec3 vns[3], vwo[3];
+  Frame vframe[3];
 };
 
 ExactDirect::ExactDirect(const TileGeometry& geom, const std::vector<Material>& materials,
@@ -265,6 +271,10 @@ ExactDirect::ExactDirect(const TileGeometry& geom, const std::vector<Material>& 
     if (F.flat) {
       F.ns = geom.shadingNormal(uint32_t(t), 1.0f / 3, 1.0f / 3);
       ++m_stats.flatFaces;
+    } else {
+      F.vn[0] = geom.shadingNormal(uint32_t(t), 0, 0);
+      F.vn[1] = geom.shadingNormal(uint32_t(t), 1, 0);
+      F.vn[2] = geom.shadingNormal(uint32_t(t), 0, 1);
     }
   }
 }
@@ -272,7 +282,7 @@ ExactDirect::ExactDirect(const TileGeometry& geom, const std::vector<Material>& 
 ExactDirect::~ExactDirect() = default;
 
 bool ExactDirect::shades(uint32_t prim) const {
-  return prim < m_faces.size() && m_faces[prim].valid && m_faces[prim].flat;
+  return prim < m_faces.size() && m_faces[prim].valid && (m_faces[prim].flat || m_shadeSmooth);
 }
 
 std::vector<uint8_t> ExactDirect::shadedMask() const {
@@ -366,7 +376,7 @@ void ExactDirect::hsr(int dir, DirRegions* out, int64_t* tests) const {
   int64_t nTests = 0;
   for (uint32_t a : valid) {
     const Face& A = m_faces[a];
-    if (!A.flat && !m_everyFace) continue;  // an occluder only: shaded by the sampled kernel
+    if (!A.flat && !m_everyFace && !m_shadeSmooth) continue;  // an occluder only (sampled)
     const double nd = glm::dot(A.n, w);
     if (std::abs(nd) < 1e-6) continue;  // edge-on: no projected area
     const Box& ba = box[a];
@@ -468,7 +478,7 @@ void ExactDirect::hsr(int dir, DirRegions* out, int64_t* tests) const {
 
 double ExactDirect::visibleFraction(int dir, uint32_t prim) const {
   BTF_CHECK(m_prepared && dir >= 0 && dir < m_dirs.size() && prim < m_faces.size());
-  BTF_CHECK(m_everyFace || !m_faces[prim].valid || m_faces[prim].flat);
+  BTF_CHECK(m_everyFace || m_shadeSmooth || !m_faces[prim].valid || m_faces[prim].flat);
   const DirRegions& R = m_regions[size_t(dir)];
   if (R.state[prim] == kHidden) return 0;
   if (R.state[prim] == kWhole) return 1;
@@ -485,7 +495,7 @@ void ExactDirect::prepareView(int view, std::vector<ViewFace>* faces, int* width
   double maxWidth = 0;
   for (uint32_t f : m_regions[size_t(view)].seen) {
     const Face& F = m_faces[f];
-    if (!F.flat) continue;
+    if (!F.flat && !m_shadeSmooth) continue;
     ViewFace V;
     V.face = f;
     const double is = 1.0 / F.scale;
@@ -518,6 +528,17 @@ void ExactDirect::prepareView(int view, std::vector<ViewFace>* faces, int* width
     V.lambert = V.mat->type == BrdfType::Lambert;
     V.frame = Frame::fromNormal(V.ns);
     V.wo = V.frame.toLocal(V.wv);
+    if (!F.flat) {
+      V.smooth = true;
+      for (int k = 0; k < 3; ++k) {
+        const double X = double(F.tri[size_t(k)].X), Y = double(F.tri[size_t(k)].Y);
+        V.vx[k] = V.cx[0] + V.cx[1] * X + V.cx[2] * Y;
+        V.vy[k] = V.cy[0] + V.cy[1] * X + V.cy[2] * Y;
+        V.vns[k] = back ? -F.vn[k] : F.vn[k];
+        V.vframe[k] = Frame::fromNormal(V.vns[k]);
+        V.vwo[k] = V.vframe[k].toLocal(V.wv);
+      }
+    }
     faces->push_back(V);
   }
   *width = m_nu + int(std::ceil(maxWidth)) + 3;
@@ -525,7 +546,7 @@ void ExactDirect::prepareView(int view, std::vector<ViewFace>* faces, int* width
 
 void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& faces, int width, int row0,
                               int row1, AreaRaster* raster) const {
-  raster->reset(m_nu, m_nv, row0, row1, width);
+  raster->reset(m_nu, m_nv, row0, row1, width, m_shadeSmooth);
   const Vec3 wl(m_dirs[light].w);
   const float invCos = float(1.0 / std::max(m_dirs[light].w.z, 1e-7));
   const DirRegions& RL = m_regions[size_t(light)];
@@ -545,24 +566,68 @@ void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& 
     const uint8_t sl = RL.state[V.face];
     if (sl == kHidden) continue;
     if (!rowsMet(V.y0, V.y1)) continue;
-    const float cosN = glm::dot(V.ns, wl), cn = glm::dot(V.ng, wl);
-    if (cosN <= 0 || cn <= 0) continue;  // the light is on the other side
-    if (!V.lambert && V.wo.z <= 0) continue;
-    const Rgb f = V.lambert ? V.mat->kdOverPi : evalBrdf(*V.mat, V.frame.toLocal(wl), V.wo);
-    const Rgb val = f * (cosN * invCos);
-    if (!(val.x > 0 || val.y > 0 || val.z > 0)) continue;
-    const double wgt[3] = {double(val.x) * V.orient, double(val.y) * V.orient,
-                           double(val.z) * V.orient};
+    // Shading: a constant on a flat face; on a smooth one the plane through its vertices'
+    // values (f_r · (n_s·ωi) / cos θi at each vertex's shading normal, 0 where that normal turns
+    // from the light), a + b·x + g·y in cell coordinates — second order in the face's size.
+    double wgt[3], lin[2][3][3];  // the flat weight; ± (a, b, g) per channel
+    if (!V.smooth) {
+      const float cosN = glm::dot(V.ns, wl), cn = glm::dot(V.ng, wl);
+      if (cosN <= 0 || cn <= 0) continue;  // the light is on the other side
+      if (!V.lambert && V.wo.z <= 0) continue;
+      const Rgb f = V.lambert ? V.mat->kdOverPi : evalBrdf(*V.mat, V.frame.toLocal(wl), V.wo);
+      const Rgb val = f * (cosN * invCos);
+      if (!(val.x > 0 || val.y > 0 || val.z > 0)) continue;
+      for (int c = 0; c < 3; ++c) wgt[c] = double(val[c]) * V.orient;
+    } else {
+      if (glm::dot(V.ng, wl) <= 0) continue;  // the face's back to the light
+      Rgb vv[3];
+      bool any = false;
+      for (int k = 0; k < 3; ++k) {
+        vv[k] = Rgb(0);
+        const float cosN = glm::dot(V.vns[k], wl);
+        if (cosN <= 0 || (!V.lambert && V.vwo[k].z <= 0)) continue;
+        const Rgb f =
+            V.lambert ? V.mat->kdOverPi : evalBrdf(*V.mat, V.vframe[k].toLocal(wl), V.vwo[k]);
+        vv[k] = f * (cosN * invCos);
+        any = any || vv[k].x > 0 || vv[k].y > 0 || vv[k].z > 0;
+      }
+      if (!any) continue;
+      const double x1 = V.vx[1] - V.vx[0], y1 = V.vy[1] - V.vy[0];
+      const double x2 = V.vx[2] - V.vx[0], y2 = V.vy[2] - V.vy[0];
+      const double det = x1 * y2 - x2 * y1;
+      const double ext = std::max({std::abs(x1), std::abs(y1), std::abs(x2), std::abs(y2)});
+      for (int c = 0; c < 3; ++c) {
+        const double v0 = vv[0][c], d1 = vv[1][c] - v0, d2 = vv[2][c] - v0;
+        double b = 0, g = 0, a = (v0 + vv[1][c] + vv[2][c]) / 3;
+        // Nearly edge-on in projection: the mean (the face adds next to no area).
+        if (std::abs(det) > 1e-9 * ext * ext) {
+          b = (d1 * y2 - d2 * y1) / det;
+          g = (x1 * d2 - x2 * d1) / det;
+          a = v0 - b * V.vx[0] - g * V.vy[0];
+        }
+        const double abg[3] = {a, b, g};
+        for (int q = 0; q < 3; ++q) {
+          lin[0][q][c] = abg[q] * V.orient;
+          lin[1][q][c] = -abg[q] * V.orient;
+        }
+      }
+    }
+    const double wneg[3] = {-wgt[0], -wgt[1], -wgt[2]};
     const Face& F = m_faces[V.face];
     auto px = [&](double X, double Y) { return V.cx[0] + V.cx[1] * X + V.cx[2] * Y; };
     auto py = [&](double X, double Y) { return V.cy[0] + V.cy[1] * X + V.cy[2] * Y; };
     // One ring (local integers or doubles) into the raster, projected onto the cells.
-    auto emit = [&](const auto* pts, size_t n, const double* w) {
+    auto emit = [&](const auto* pts, size_t n, bool positive) {
       if (n < 3) return;
+      const double* w = positive ? wgt : wneg;
+      const double(*L)[3] = lin[positive ? 0 : 1];
       double x0 = px(xOf(pts[n - 1]), yOf(pts[n - 1])), y0 = py(xOf(pts[n - 1]), yOf(pts[n - 1]));
       for (size_t i = 0; i < n; ++i) {
         const double x1 = px(xOf(pts[i]), yOf(pts[i])), y1 = py(xOf(pts[i]), yOf(pts[i]));
-        raster->addEdge(x0, y0, x1, y1, w);
+        if (V.smooth)
+          raster->addLinearEdge(x0, y0, x1, y1, L[0], L[1], L[2]);
+        else
+          raster->addEdge(x0, y0, x1, y1, w);
         x0 = x1, y0 = y1;
       }
     };
@@ -571,11 +636,11 @@ void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& 
     if (sv == kPartial) RV->ringRange(V.face, &v0, &v1);
     if (sl == kPartial) RL.ringRange(V.face, &l0, &l1);
     if (sv == kWhole && sl == kWhole) {
-      emit(F.tri.data(), 3, wgt);
+      emit(F.tri.data(), 3, true);
     } else if (sv == kWhole || sl == kWhole) {
       const DirRegions& R = sv == kWhole ? RL : *RV;
       for (uint32_t r = sv == kWhole ? l0 : v0, e = sv == kWhole ? l1 : v1; r < e; ++r)
-        emit(&R.pts[R.ptBegin[r]], R.ptBegin[r + 1] - R.ptBegin[r], wgt);
+        emit(&R.pts[R.ptBegin[r]], R.ptBegin[r + 1] - R.ptBegin[r], true);
     } else {
       // Pieces (of the face's local integers) wholly outside the band are left out.
       auto meetsBand = [&](const P2* p, int n) {
@@ -587,7 +652,7 @@ void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& 
         }
         return rowsMet(y0, y1);
       };
-      intersectInto(*RV, v0, v1, RL, l0, l1, wgt, meetsBand, emit);
+      intersectInto(*RV, v0, v1, RL, l0, l1, meetsBand, emit);
     }
   }
   raster->resolve();

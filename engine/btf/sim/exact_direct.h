@@ -47,6 +47,12 @@ class ExactDirect {
   /// (on a curved tile most of the hidden-surface removal's work); visibleFraction() of a smooth
   /// face needs this on.
   void setEveryFace(bool on) { m_everyFace = on; }
+  /// Shade the smooth faces here too (before prepare()): their seen ∩ lit parts from the same
+  /// removal, shaded by the plane through the values at their vertices' shading normals (a
+  /// quadrature of second order in the face's size, not samples). Off: the sampled kernel
+  /// shades them on the hit maps.
+  void setShadeSmooth(bool on) { m_shadeSmooth = on; }
+  bool shadeSmooth() const { return m_shadeSmooth; }
   /// Hidden-surface removal for every direction (parallel; progress counts directions).
   void prepare(ProgressReporter* progress = nullptr, const CancelToken* cancel = nullptr);
 
@@ -57,6 +63,9 @@ class ExactDirect {
   bool prepared() const { return m_prepared; }
   /// Every triangle of non-zero area is flat: the whole direct light is exact.
   bool allFlat() const { return m_stats.flatFaces == m_stats.faces; }
+  /// Every triangle of non-zero area is shaded here (flat, or smooth with setShadeSmooth): the
+  /// sampled kernel adds no direct light.
+  bool allShaded() const { return allFlat() || m_shadeSmooth; }
   const ExactStats& stats() const { return m_stats; }
 
   /// Up to `bytes` (0: none) of whole rows of every view kept between evalView calls: a run
@@ -105,6 +114,7 @@ class ExactDirect {
   int m_blockRows = 0;
   bool m_prepared = false;
   bool m_everyFace = false;
+  bool m_shadeSmooth = false;
 };
 
 }  // namespace btf

@@ -161,6 +161,7 @@ SimEstimate SimulationJob::estimate(const std::string& outPath) const {
     for (int q = 0; q < nCal; ++q) sub.push_back(m_dirs[nCal == 1 ? 0 : q * (nD - 1) / (nCal - 1)]);
     const DirectionSet cal = DirectionSet::subset("calibration", sub);
     ExactDirect ex(m_geom, m_materials, cal, m_opt.nu, m_opt.nv);
+    ex.setShadeSmooth(m_exact->shadeSmooth());
     const int64_t calTexels = std::min<int64_t>(texels, int64_t(e.chunkTexels));
     std::vector<float> out(size_t(calTexels) * size_t(nCal) * 3);
     double hsr = 0, pairs = 0;

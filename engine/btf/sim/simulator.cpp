@@ -81,6 +81,8 @@ SimulationJob::SimulationJob(const Scene& scene, SimOptions options)
   if (vis != "sampled" && m_opt.method != "pt") {
     auto ex = std::make_unique<ExactDirect>(m_geom, m_materials, m_dirs, m_opt.nu, m_opt.nv);
     if (vis == "exact" || (m_adaptive && ex->allFlat())) {
+      // Asked for: the smooth faces too, shaded by their vertices' planes.
+      ex->setShadeSmooth(vis == "exact");
       // Flat faces are exact; the hit maps (4 × 4 when adaptive was asked for) serve the smooth
       // faces' uniform samples, the visibility map and the network's final gather, whose
       // samples are the texel's (2 × 2 gives brick 6² texels 6.4 % from uniform 16 × 16).
@@ -282,6 +284,7 @@ std::vector<float> SimulationJob::renderPair(const Direction& view, const Direct
   std::unique_ptr<ExactDirect> exact;
   if (m_exact && !(pt && indirect)) {
     exact = std::make_unique<ExactDirect>(m_geom, m_materials, pair, nu, nv);
+    exact->setShadeSmooth(m_exact->shadeSmooth());
     exact->prepare(nullptr, cancel);
     direct.skipTriangles(exact->shadedMask());
   }

@@ -122,7 +122,7 @@ struct TexelKernel {
     float* base = out + size_t(view - v0) * size_t(nL) * 3;
     exact->evalView(view, t0, t1, base, texelStride);
     int64_t n = 0;
-    if (exact->allFlat() && !gather) return n;
+    if (exact->allShaded() && !gather) return n;
     for (int64_t t = t0; t < t1; ++t)
       n += addBesideExact(int(t % nu), int(t / nu), view, base + size_t(t - t0) * texelStride);
     return n;
@@ -133,7 +133,7 @@ struct TexelKernel {
   int64_t evalExactTexels(const int64_t* texels, size_t n, int view, float* const* rows) const {
     exact->evalViewTexels(view, texels, n, rows);
     int64_t count = 0;
-    if (exact->allFlat() && !gather) return count;
+    if (exact->allShaded() && !gather) return count;
     const int nu = maps.grid().nu;
     for (size_t k = 0; k < n; ++k)
       count += addBesideExact(int(texels[k] % nu), int(texels[k] / nu), view, rows[k]);
@@ -144,7 +144,7 @@ struct TexelKernel {
   /// and the gather, added to `out`. Returns the sampled kernel's BRDF evaluations.
   int64_t addBesideExact(int i, int j, int view, float* out) const {
     int64_t n = 0;
-    if (!exact->allFlat()) {
+    if (!exact->allShaded()) {
       thread_local std::vector<float> row;
       row.resize(size_t(dirs.size()) * 3);
       n = direct.evalTexelView(i, j, view, row.data());
