@@ -6,6 +6,7 @@
 #include <clipper.hpp>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
@@ -88,6 +89,13 @@ void toRing(const cl::IntPoint* p, size_t n, DRing* r) {
 }
 
 constexpr uint8_t kHidden = 0, kWhole = 1, kPartial = 2;
+// Smooth faces' shading: sub-triangles until their corners' normals are this close (radians),
+// at most 4^kMaxShadeLevel of them.
+constexpr double kShadeAngle = 4.0 * 3.14159265358979323846 / 180;
+constexpr int kMaxShadeLevel = 3;
+// … as many as bring the miss of the plane through the corners' values at the edges' midpoints
+// (divided by 4 per split) under this fraction of the face's largest value.
+constexpr float kShadeTolerance = 0.01f;
 constexpr double kIntRange = double(1 << 29);  // local coordinates × scale stay within ±2^29
 
 }  // namespace
@@ -100,6 +108,7 @@ struct ExactDirect::Face {
   cl::Path tri;  // the same in integers
   Vec3 ns{0};    // the constant shading normal (flat faces)
   Vec3 vn[3];    // the shading normals at the vertices (smooth faces)
+  uint8_t shadeLevel = 0;  // smooth faces: shaded over 4^level sub-triangles
   uint16_t material = 0;
   bool valid = false, flat = false;
 };
@@ -223,10 +232,30 @@ struct ExactDirect::ViewFace {
   // Smooth faces: the vertices in cell coordinates, their shading normals (turned toward the
   // viewer), frames and the view in them.
   bool smooth = false;
-  double vx[3], vy[3];
-  Vec3 vns[3], vwo[3];
-  Frame vframe[3];
+  int level = 0;      // 4^level sub-triangles of (level+1)(level+2)/2… see subPoints
+  uint32_t sub0 = 0;  // the first of its sub-grid's points in ViewFaces::subs
 };
+
+// A point of a smooth face's shading sub-grid seen from a view: local (integer-scaled)
+// coordinates, cell coordinates, the shading normal turned toward the viewer and its frame.
+struct ExactDirect::SubPoint {
+  double X, Y, x, y;
+  Vec3 ns, wo;
+  Frame frame;
+};
+
+struct ExactDirect::ViewFaces {
+  std::vector<ViewFace> faces;
+  std::vector<SubPoint> subs;
+  int width = 0;
+};
+
+namespace {
+// The sub-grid of level k has n = 2^k steps along each edge; point (i, j), i + j ≤ n, at
+// barycentric (i/n, j/n) is number idx(i, j) of (n + 1)(n + 2)/2.
+inline int subIndex(int n, int i, int j) { return j * (n + 1) - j * (j - 1) / 2 + i; }
+inline int subCount(int n) { return (n + 1) * (n + 2) / 2; }
+}  // namespace
 
 ExactDirect::ExactDirect(const TileGeometry& geom, const std::vector<Material>& materials,
                          const DirectionSet& dirs, int nu, int nv)
@@ -275,6 +304,13 @@ ExactDirect::ExactDirect(const TileGeometry& geom, const std::vector<Material>& 
       F.vn[0] = geom.shadingNormal(uint32_t(t), 0, 0);
       F.vn[1] = geom.shadingNormal(uint32_t(t), 1, 0);
       F.vn[2] = geom.shadingNormal(uint32_t(t), 0, 1);
+      // Split for shading until the normals of a sub-triangle's corners are ≲ kShadeAngle apart
+      // (the planes' error falls as the square of that angle).
+      const float c = std::min({glm::dot(F.vn[0], F.vn[1]), glm::dot(F.vn[1], F.vn[2]),
+                                glm::dot(F.vn[0], F.vn[2])});
+      const double spread = std::acos(std::clamp(double(c), -1.0, 1.0));
+      while (F.shadeLevel < kMaxShadeLevel && spread > kShadeAngle * double(1 << F.shadeLevel))
+        ++F.shadeLevel;
     }
   }
 }
@@ -487,8 +523,10 @@ double ExactDirect::visibleFraction(int dir, uint32_t prim) const {
   return pathsArea(ps) / cl::Area(m_faces[prim].tri);
 }
 
-void ExactDirect::prepareView(int view, std::vector<ViewFace>* faces, int* width) const {
+void ExactDirect::prepareView(int view, ViewFaces* out) const {
+  std::vector<ViewFace>* faces = &out->faces;
   faces->clear();
+  out->subs.clear();
   const DVec3 w = m_dirs[view].w;
   const double sx = w.x / std::max(w.z, 1e-9), sy = w.y / std::max(w.z, 1e-9);
   const double kx = m_nu / m_geom.Lx, ky = m_nv / m_geom.Ly;
@@ -530,23 +568,43 @@ void ExactDirect::prepareView(int view, std::vector<ViewFace>* faces, int* width
     V.wo = V.frame.toLocal(V.wv);
     if (!F.flat) {
       V.smooth = true;
-      for (int k = 0; k < 3; ++k) {
-        const double X = double(F.tri[size_t(k)].X), Y = double(F.tri[size_t(k)].Y);
-        V.vx[k] = V.cx[0] + V.cx[1] * X + V.cx[2] * Y;
-        V.vy[k] = V.cy[0] + V.cy[1] * X + V.cy[2] * Y;
-        V.vns[k] = back ? -F.vn[k] : F.vn[k];
-        V.vframe[k] = Frame::fromNormal(V.vns[k]);
-        V.vwo[k] = V.vframe[k].toLocal(V.wv);
-      }
+      V.level = F.shadeLevel;
+      V.sub0 = uint32_t(out->subs.size());
+      const int n = 1 << V.level;
+      const double X0 = double(F.tri[0].X), Y0 = double(F.tri[0].Y);
+      const double X1 = double(F.tri[1].X) - X0, Y1 = double(F.tri[1].Y) - Y0;
+      const double X2 = double(F.tri[2].X) - X0, Y2 = double(F.tri[2].Y) - Y0;
+      for (int j = 0; j <= n; ++j)
+        for (int i = 0; i + j <= n; ++i) {
+          const float bu = float(i) / float(n), bv = float(j) / float(n);
+          SubPoint P;
+          P.X = X0 + X1 * (double(i) / n) + X2 * (double(j) / n);
+          P.Y = Y0 + Y1 * (double(i) / n) + Y2 * (double(j) / n);
+          P.x = V.cx[0] + V.cx[1] * P.X + V.cx[2] * P.Y;
+          P.y = V.cy[0] + V.cy[1] * P.X + V.cy[2] * P.Y;
+          // As TileGeometry::shadingNormal at (bu, bv).
+          Vec3 nn = (1 - bu - bv) * F.vn[0] + bu * F.vn[1] + bv * F.vn[2];
+          const float len = glm::length(nn);
+          nn = len > 1e-12f ? nn / len : Vec3(F.n);
+          P.ns = back ? -nn : nn;
+          P.frame = Frame::fromNormal(P.ns);
+          P.wo = P.frame.toLocal(V.wv);
+          out->subs.push_back(P);
+        }
     }
     faces->push_back(V);
   }
-  *width = m_nu + int(std::ceil(maxWidth)) + 3;
+  out->width = m_nu + int(std::ceil(maxWidth)) + 3;
 }
 
-void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& faces, int width, int row0,
-                              int row1, AreaRaster* raster) const {
-  raster->reset(m_nu, m_nv, row0, row1, width, m_shadeSmooth);
+void ExactDirect::rasterLight(int view, int light, const ViewFaces& vf, int row0, int row1,
+                              AreaRaster* raster) const {
+  const std::vector<ViewFace>& faces = vf.faces;
+  raster->reset(m_nu, m_nv, row0, row1, vf.width, m_shadeSmooth);
+  thread_local std::vector<Rgb> subValue;
+  thread_local std::vector<std::array<double, 18>> subLin;  // per sub-triangle ±(a, b, g) × 3
+  thread_local std::vector<P2> subPoly, subTmp;
+  thread_local std::vector<SubPoint> gathered;
   const Vec3 wl(m_dirs[light].w);
   const float invCos = float(1.0 / std::max(m_dirs[light].w.z, 1e-7));
   const DirRegions& RL = m_regions[size_t(light)];
@@ -566,10 +624,13 @@ void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& 
     const uint8_t sl = RL.state[V.face];
     if (sl == kHidden) continue;
     if (!rowsMet(V.y0, V.y1)) continue;
-    // Shading: a constant on a flat face; on a smooth one the plane through its vertices'
-    // values (f_r · (n_s·ωi) / cos θi at each vertex's shading normal, 0 where that normal turns
-    // from the light), a + b·x + g·y in cell coordinates — second order in the face's size.
-    double wgt[3], lin[2][3][3];  // the flat weight; ± (a, b, g) per channel
+    // Shading: a constant on a flat face; on a smooth one, over each of its 4^level
+    // sub-triangles, the plane through the values at the corners (f_r · (n_s·ωi) / cos θi at
+    // the interpolated shading normal, 0 where it turns from the light), a + b·x + g·y in cell
+    // coordinates — second order in the sub-triangle's size.
+    double wgt[3];  // the flat weight (smooth faces: subLin)
+    int level = 0;  // smooth faces: the sub-grid used for this light
+    const SubPoint* subP = nullptr;
     if (!V.smooth) {
       const float cosN = glm::dot(V.ns, wl), cn = glm::dot(V.ng, wl);
       if (cosN <= 0 || cn <= 0) continue;  // the light is on the other side
@@ -580,56 +641,151 @@ void ExactDirect::rasterLight(int view, int light, const std::vector<ViewFace>& 
       for (int c = 0; c < 3; ++c) wgt[c] = double(val[c]) * V.orient;
     } else {
       if (glm::dot(V.ng, wl) <= 0) continue;  // the face's back to the light
-      Rgb vv[3];
+      const SubPoint* P = &vf.subs[V.sub0];
+      auto value = [&](const SubPoint& q) {
+        const float cosN = glm::dot(q.ns, wl);
+        if (cosN <= 0 || (!V.lambert && q.wo.z <= 0)) return Rgb(0);
+        const Rgb f = V.lambert ? V.mat->kdOverPi : evalBrdf(*V.mat, q.frame.toLocal(wl), q.wo);
+        return f * (cosN * invCos);
+      };
+      // Split only where the face's values are not near a plane: the edges' midpoints off
+      // their ends' mean by more than kShadeTolerance of the largest (or where the corners
+      // differ in being lit; each test costs three evaluations).
+      int n = 1 << V.level;
+      if (n > 1) {
+        const int h = n / 2;
+        const int c[3] = {subIndex(n, 0, 0), subIndex(n, n, 0), subIndex(n, 0, n)};
+        const int m[3] = {subIndex(n, h, 0), subIndex(n, h, h), subIndex(n, 0, h)};
+        Rgb vc[3], vm[3];
+        float top = 0, off = 0;
+        for (int k = 0; k < 3; ++k) {
+          vc[k] = value(P[c[k]]), vm[k] = value(P[m[k]]);
+          top = std::max({top, vc[k].x, vc[k].y, vc[k].z, vm[k].x, vm[k].y, vm[k].z});
+        }
+        for (int k = 0; k < 3; ++k) {
+          const Rgb d = vm[k] - 0.5f * (vc[k] + vc[(k + 1) % 3]);
+          off = std::max({off, std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+        }
+        if (!(top > 0)) continue;
+        // A plane's error falls by 4 with each split: the fewest splits that bring the
+        // midpoints' miss under the tolerance, up to the face's own level.
+        int k = 0;
+        for (float e = off; k < V.level && e > kShadeTolerance * top; e *= 0.25f) ++k;
+        if (k < V.level) {
+          const int stride = n >> k;
+          n = 1 << k;
+          gathered.clear();
+          for (int j = 0; j <= n; ++j)
+            for (int i = 0; i + j <= n; ++i)
+              gathered.push_back(P[subIndex(1 << V.level, i * stride, j * stride)]);
+          P = gathered.data();
+        }
+      }
+      const int np = subCount(n);
+      subValue.resize(size_t(np));
       bool any = false;
-      for (int k = 0; k < 3; ++k) {
-        vv[k] = Rgb(0);
-        const float cosN = glm::dot(V.vns[k], wl);
-        if (cosN <= 0 || (!V.lambert && V.vwo[k].z <= 0)) continue;
-        const Rgb f =
-            V.lambert ? V.mat->kdOverPi : evalBrdf(*V.mat, V.vframe[k].toLocal(wl), V.vwo[k]);
-        vv[k] = f * (cosN * invCos);
-        any = any || vv[k].x > 0 || vv[k].y > 0 || vv[k].z > 0;
+      for (int k = 0; k < np; ++k) {
+        subValue[size_t(k)] = value(P[k]);
+        const Rgb& v = subValue[size_t(k)];
+        any = any || v.x > 0 || v.y > 0 || v.z > 0;
       }
       if (!any) continue;
-      const double x1 = V.vx[1] - V.vx[0], y1 = V.vy[1] - V.vy[0];
-      const double x2 = V.vx[2] - V.vx[0], y2 = V.vy[2] - V.vy[0];
-      const double det = x1 * y2 - x2 * y1;
-      const double ext = std::max({std::abs(x1), std::abs(y1), std::abs(x2), std::abs(y2)});
-      for (int c = 0; c < 3; ++c) {
-        const double v0 = vv[0][c], d1 = vv[1][c] - v0, d2 = vv[2][c] - v0;
-        double b = 0, g = 0, a = (v0 + vv[1][c] + vv[2][c]) / 3;
-        // Nearly edge-on in projection: the mean (the face adds next to no area).
-        if (std::abs(det) > 1e-9 * ext * ext) {
-          b = (d1 * y2 - d2 * y1) / det;
-          g = (x1 * d2 - x2 * d1) / det;
-          a = v0 - b * V.vx[0] - g * V.vy[0];
+      level = 0;
+      while ((1 << level) < n) ++level;
+      subP = P;
+      // Each sub-triangle's plane: the upward ones (i, j), (i+1, j), (i, j+1), then the
+      // downward ones (i+1, j), (i+1, j+1), (i, j+1).
+      subLin.resize(size_t(n) * size_t(n));
+      size_t t = 0;
+      auto plane = [&](int ia, int ib, int ic) {
+        const SubPoint &A = P[ia], &B = P[ib], &C = P[ic];
+        const double x1 = B.x - A.x, y1 = B.y - A.y, x2 = C.x - A.x, y2 = C.y - A.y;
+        const double det = x1 * y2 - x2 * y1;
+        const double ext = std::max({std::abs(x1), std::abs(y1), std::abs(x2), std::abs(y2)});
+        std::array<double, 18>& L = subLin[t++];
+        for (int c = 0; c < 3; ++c) {
+          const double va = subValue[size_t(ia)][c], d1 = subValue[size_t(ib)][c] - va,
+                       d2 = subValue[size_t(ic)][c] - va;
+          double b = 0, g = 0, a = va + (d1 + d2) / 3;
+          // Nearly edge-on in projection: the mean (it adds next to no area).
+          if (std::abs(det) > 1e-9 * ext * ext) {
+            b = (d1 * y2 - d2 * y1) / det;
+            g = (x1 * d2 - x2 * d1) / det;
+            a = va - b * A.x - g * A.y;
+          }
+          const double abg[3] = {a, b, g};
+          for (int q = 0; q < 3; ++q) {
+            L[size_t(3 * q + c)] = abg[q] * V.orient;
+            L[size_t(9 + 3 * q + c)] = -abg[q] * V.orient;
+          }
         }
-        const double abg[3] = {a, b, g};
-        for (int q = 0; q < 3; ++q) {
-          lin[0][q][c] = abg[q] * V.orient;
-          lin[1][q][c] = -abg[q] * V.orient;
-        }
-      }
+      };
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i + j < n; ++i)
+          plane(subIndex(n, i, j), subIndex(n, i + 1, j), subIndex(n, i, j + 1));
+      for (int j = 0; j + 1 < n; ++j)
+        for (int i = 0; i + j + 1 < n; ++i)
+          plane(subIndex(n, i + 1, j), subIndex(n, i + 1, j + 1), subIndex(n, i, j + 1));
+      wgt[0] = wgt[1] = wgt[2] = 0;
     }
     const double wneg[3] = {-wgt[0], -wgt[1], -wgt[2]};
     const Face& F = m_faces[V.face];
     auto px = [&](double X, double Y) { return V.cx[0] + V.cx[1] * X + V.cx[2] * Y; };
     auto py = [&](double X, double Y) { return V.cy[0] + V.cy[1] * X + V.cy[2] * Y; };
     // One ring (local integers or doubles) into the raster, projected onto the cells.
-    auto emit = [&](const auto* pts, size_t n, bool positive) {
-      if (n < 3) return;
-      const double* w = positive ? wgt : wneg;
-      const double(*L)[3] = lin[positive ? 0 : 1];
+    // A ring's edges in cell coordinates, each handed to add(x0, y0, x1, y1).
+    auto edges = [&](const auto* pts, size_t n, auto&& add) {
       double x0 = px(xOf(pts[n - 1]), yOf(pts[n - 1])), y0 = py(xOf(pts[n - 1]), yOf(pts[n - 1]));
       for (size_t i = 0; i < n; ++i) {
         const double x1 = px(xOf(pts[i]), yOf(pts[i])), y1 = py(xOf(pts[i]), yOf(pts[i]));
-        if (V.smooth)
-          raster->addLinearEdge(x0, y0, x1, y1, L[0], L[1], L[2]);
-        else
-          raster->addEdge(x0, y0, x1, y1, w);
+        add(x0, y0, x1, y1);
         x0 = x1, y0 = y1;
       }
+    };
+    auto emitFlat = [&](const auto* pts, size_t n, const double* w) {
+      edges(pts, n, [&](double a, double b, double c, double d) { raster->addEdge(a, b, c, d, w); });
+    };
+    auto emitLinear = [&](const auto* pts, size_t n, const double* L) {
+      edges(pts, n, [&](double a, double b, double c, double d) {
+        raster->addLinearEdge(a, b, c, d, L, L + 3, L + 6);
+      });
+    };
+    auto emit = [&](const auto* pts, size_t n, bool positive) {
+      if (n < 3) return;
+      if (!V.smooth) return emitFlat(pts, n, positive ? wgt : wneg);
+      const int ns = 1 << level;
+      if (ns == 1) return emitLinear(pts, n, subLin[0].data() + (positive ? 0 : 9));
+      // The ring's part in each sub-triangle, shaded by that sub-triangle's plane.
+      const SubPoint* P = subP;
+      double rx0 = 1e300, rx1 = -1e300, ry0 = 1e300, ry1 = -1e300;
+      for (size_t i = 0; i < n; ++i) {
+        rx0 = std::min(rx0, xOf(pts[i])), rx1 = std::max(rx1, xOf(pts[i]));
+        ry0 = std::min(ry0, yOf(pts[i])), ry1 = std::max(ry1, yOf(pts[i]));
+      }
+      size_t t = 0;
+      auto piece = [&](int ia, int ib, int ic) {
+        const double* L = subLin[t++].data() + (positive ? 0 : 9);
+        const P2 T[3] = {{P[ia].X, P[ia].Y}, {P[ib].X, P[ib].Y}, {P[ic].X, P[ic].Y}};
+        if (std::max({T[0].x, T[1].x, T[2].x}) <= rx0 || std::min({T[0].x, T[1].x, T[2].x}) >= rx1 ||
+            std::max({T[0].y, T[1].y, T[2].y}) <= ry0 || std::min({T[0].y, T[1].y, T[2].y}) >= ry1)
+          return;
+        subPoly.resize(n);
+        for (size_t i = 0; i < n; ++i) subPoly[i] = {xOf(pts[i]), yOf(pts[i])};
+        for (int e = 0; e < 3 && subPoly.size() >= 3; ++e) {
+          const P2& u = T[e];
+          const P2& v = T[(e + 1) % 3];
+          const double ea = -(v.y - u.y), eb = v.x - u.x;  // left of u → v: inside
+          clipHalf(subPoly, ea, eb, -(ea * u.x + eb * u.y), &subTmp);
+          subPoly.swap(subTmp);
+        }
+        if (subPoly.size() >= 3) emitLinear(subPoly.data(), subPoly.size(), L);
+      };
+      for (int j = 0; j < ns; ++j)
+        for (int i = 0; i + j < ns; ++i)
+          piece(subIndex(ns, i, j), subIndex(ns, i + 1, j), subIndex(ns, i, j + 1));
+      for (int j = 0; j + 1 < ns; ++j)
+        for (int i = 0; i + j + 1 < ns; ++i)
+          piece(subIndex(ns, i + 1, j), subIndex(ns, i + 1, j + 1), subIndex(ns, i, j + 1));
     };
     const uint8_t sv = RV->state[V.face];
     uint32_t v0 = 0, v1 = 0, l0 = 0, l1 = 0;
@@ -695,12 +851,11 @@ void ExactDirect::evalView(int view, int64_t t0, int64_t t1, float* out,
 void ExactDirect::evalRows(int view, int64_t t0, int64_t t1, float* out,
                            size_t texelStride) const {
   const int row0 = int(t0 / m_nu), row1 = int((t1 - 1) / m_nu) + 1;
-  thread_local std::vector<ViewFace> faces;
+  thread_local ViewFaces faces;
   thread_local AreaRaster raster;
-  int width = 0;
-  prepareView(view, &faces, &width);
+  prepareView(view, &faces);
   for (int l = 0, nL = m_dirs.size(); l < nL; ++l) {
-    rasterLight(view, l, faces, width, row0, row1, &raster);
+    rasterLight(view, l, faces, row0, row1, &raster);
     for (int64_t t = t0; t < t1; ++t) {
       const int i = int(t % m_nu), j = int(t / m_nu);
       float* o = out + size_t(t - t0) * texelStride + 3 * size_t(l);
@@ -732,13 +887,12 @@ void ExactDirect::evalViewTexels(int view, const int64_t* texels, size_t n,
       else
         runs.push_back({j, j + 1});
     }
-  thread_local std::vector<ViewFace> faces;
+  thread_local ViewFaces faces;
   thread_local AreaRaster raster;
-  int width = 0;
-  prepareView(view, &faces, &width);
+  prepareView(view, &faces);
   for (int l = 0, nL = m_dirs.size(); l < nL; ++l)
     for (const auto& [row0, row1] : runs) {
-      rasterLight(view, l, faces, width, row0, row1, &raster);
+      rasterLight(view, l, faces, row0, row1, &raster);
       for (size_t k = 0; k < n; ++k) {
         const int i = int(texels[k] % m_nu), j = int(texels[k] / m_nu);
         if (j < row0 || j >= row1) continue;
@@ -753,11 +907,10 @@ void ExactDirect::evalViewTexels(int view, const int64_t* texels, size_t n,
 void ExactDirect::evalPair(int view, int light, float* image) const {
   BTF_CHECK(m_prepared && view >= 0 && view < m_dirs.size() && light >= 0 &&
             light < m_dirs.size());
-  std::vector<ViewFace> faces;
+  ViewFaces faces;
   AreaRaster raster;
-  int width = 0;
-  prepareView(view, &faces, &width);
-  rasterLight(view, light, faces, width, 0, m_nv, &raster);
+  prepareView(view, &faces);
+  rasterLight(view, light, faces, 0, m_nv, &raster);
   for (int j = 0; j < m_nv; ++j)
     for (int i = 0; i < m_nu; ++i)
       for (int c = 0; c < 3; ++c) {

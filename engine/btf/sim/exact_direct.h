@@ -92,6 +92,8 @@ class ExactDirect {
   struct Face;
   struct DirRegions;
   struct ViewFace;
+  struct SubPoint;
+  struct ViewFaces;
   struct RowBlock {  // rows [r0, r1) of one view, every light: (t − r0·nu)·nL·3 + 3·l + c
     std::mutex lock;
     int r0 = 0, r1 = 0;
@@ -99,8 +101,8 @@ class ExactDirect {
   };
   void hsr(int dir, DirRegions* out, int64_t* tests) const;
   void evalRows(int view, int64_t t0, int64_t t1, float* out, size_t texelStride) const;
-  void prepareView(int view, std::vector<ViewFace>* faces, int* width) const;
-  void rasterLight(int view, int light, const std::vector<ViewFace>& faces, int width, int row0, int row1,
+  void prepareView(int view, ViewFaces* out) const;
+  void rasterLight(int view, int light, const ViewFaces& faces, int row0, int row1,
                    AreaRaster* raster) const;
 
   const TileGeometry& m_geom;
