@@ -30,23 +30,11 @@ class AreaRaster {
   /// Edge (x0, y0) → (x1, y1) in cell units, weighted by w[kChannels]; a counter-clockwise ring
   /// adds w × its area to the cells it covers.
   void addEdge(double x0, double y0, double x1, double y1, const double* w) {
-    if (!(y0 != y1)) return;  // horizontal (or NaN): no area
-    const double dir = y1 > y0 ? 1.0 : -1.0;
-    const double ya = std::min(y0, y1), yb = std::max(y0, y1);
-    const double xa = y1 > y0 ? x0 : x1, xb = y1 > y0 ? x1 : x0;  // x at ya and at yb
-    const double slope = (xb - xa) / (yb - ya);                    // dx per dy
-    const int r0 = int(std::floor(ya)), r1 = int(std::ceil(yb));
-    for (int r = r0; r < r1; ++r) {
-      int row = r % m_nv;
-      if (row < 0) row += m_nv;
-      if (row < m_r0 || row >= m_r1) continue;
-      const double s0 = std::max(ya, double(r)), s1 = std::min(yb, double(r + 1));
-      if (!(s1 > s0)) continue;
-      const double ex0 = xa + (s0 - ya) * slope, ex1 = xa + (s1 - ya) * slope;
-      // Counter-clockwise rings go down on their left side: a point inside has edges of
-      // negative dy on its left, hence the sign.
-      addSpan(row, ex0, ex1, -dir * (s1 - s0), w);
-    }
+    // Counter-clockwise rings go down on their left side: a point inside has edges of
+    // negative dy on its left, hence the sign.
+    rowPieces(x0, y0, x1, y1, [&](int row, double ex0, double s0, double ex1, double s1, double sign) {
+      addSpan(row, ex0, ex1, sign * (s1 - s0), w);
+    });
   }
 
   /// The same edge for an integrand linear over the cells: channel k's value at cell point
@@ -54,25 +42,13 @@ class AreaRaster {
   /// gets the exact integral of it over the ring's part inside the cell (reset with linear).
   void addLinearEdge(double x0, double y0, double x1, double y1, const double* a, const double* b,
                      const double* g) {
-    if (!(y0 != y1)) return;
-    const double dir = y1 > y0 ? 1.0 : -1.0;
-    const double ya = std::min(y0, y1), yb = std::max(y0, y1);
-    const double xa = y1 > y0 ? x0 : x1, xb = y1 > y0 ? x1 : x0;
-    const double slope = (xb - xa) / (yb - ya);
-    const int r0 = int(std::floor(ya)), r1 = int(std::ceil(yb));
-    for (int r = r0; r < r1; ++r) {
-      int row = r % m_nv;
-      if (row < 0) row += m_nv;
-      if (row < m_r0 || row >= m_r1) continue;
-      const double s0 = std::max(ya, double(r)), s1 = std::min(yb, double(r + 1));
-      if (!(s1 > s0)) continue;
-      const double ex0 = xa + (s0 - ya) * slope, ex1 = xa + (s1 - ya) * slope;
+    rowPieces(x0, y0, x1, y1, [&](int row, double ex0, double s0, double ex1, double s1, double sign) {
       // Split at the column boundaries along y: each piece lies in one column.
       const double lo = std::min(ex0, ex1), hi = std::max(ex0, ex1);
       const int c0 = int(std::floor(lo));
       if (hi - lo < 1e-12 || int(std::floor(hi)) == c0) {
-        linearPiece(row, c0, ex0, s0, ex1, s1, -dir, a, b, g);
-        continue;
+        linearPiece(row, c0, ex0, s0, ex1, s1, sign, a, b, g);
+        return;
       }
       const double inv = 1.0 / (ex1 - ex0);
       for (int c = c0; double(c) < hi; ++c) {
@@ -82,9 +58,9 @@ class AreaRaster {
         const double ya2 = s0 + std::min(ta, tb) * (s1 - s0), yb2 = s0 + std::max(ta, tb) * (s1 - s0);
         // x at ya2 and at yb2 (the piece's ends, in the order of y)
         const double xs = ex0 + std::min(ta, tb) * (ex1 - ex0), xe = ex0 + std::max(ta, tb) * (ex1 - ex0);
-        linearPiece(row, c, xs, ya2, xe, yb2, -dir, a, b, g);
+        linearPiece(row, c, xs, ya2, xe, yb2, sign, a, b, g);
       }
-    }
+    });
   }
 
   /// Cell (i, j)'s accumulated value of channel c (after resolve), j in [rowBegin, rowEnd).
@@ -143,6 +119,26 @@ class AreaRaster {
       const double a = std::max(lo, double(c)), b = std::min(hi, double(c + 1));
       if (!(b > a)) continue;
       put(c, 0.5 * (a + b) - c, h * (b - a) / len);
+    }
+  }
+
+  // The edge's pieces within each kept row (rows wrap): fn(row, x at s0, s0, x at s1, s1,
+  // sign) with s0 < s1, sign −1 for an edge going up in y, +1 going down.
+  template <class Fn>
+  void rowPieces(double x0, double y0, double x1, double y1, Fn&& fn) const {
+    if (!(y0 != y1)) return;  // horizontal (or NaN): no area
+    const double dir = y1 > y0 ? 1.0 : -1.0;
+    const double ya = std::min(y0, y1), yb = std::max(y0, y1);
+    const double xa = y1 > y0 ? x0 : x1, xb = y1 > y0 ? x1 : x0;  // x at ya and at yb
+    const double slope = (xb - xa) / (yb - ya);                    // dx per dy
+    const int r0 = int(std::floor(ya)), r1 = int(std::ceil(yb));
+    for (int r = r0; r < r1; ++r) {
+      int row = r % m_nv;
+      if (row < 0) row += m_nv;
+      if (row < m_r0 || row >= m_r1) continue;
+      const double s0 = std::max(ya, double(r)), s1 = std::min(yb, double(r + 1));
+      if (!(s1 > s0)) continue;
+      fn(row, xa + (s0 - ya) * slope, s0, xa + (s1 - ya) * slope, s1, -dir);
     }
   }
 
